@@ -1,0 +1,29 @@
+# Set-up and entry points for a fresh machine. See README.md.
+#   make demo   install, then run the main job on a bundled fixture
+#   make test   install, then run the test suite (what .ci/run calls)
+PYTHON ?= python3
+VENV   ?= .venv
+BIN     = $(VENV)/bin
+STAMP   = $(VENV)/.weavecap-installed
+
+.PHONY: install demo test man
+
+install: $(STAMP)
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install -q --upgrade pip
+	# torch first: the pinned CPU build is on disk; anything else would pull CUDA wheels.
+	$(BIN)/python -m pip install -q torch==2.13.0
+	$(BIN)/python -m pip install -q -e '.[test]'
+	$(BIN)/weavecap doctor --check
+	touch $(STAMP)
+
+demo: install
+	$(BIN)/weavecap synth fixtures/params/twill_2_1.json -o out/twill_2_1.png --tiles 4x4 --size 512 --force
+
+test: install
+	$(BIN)/python -m pytest -q -p no:cacheprovider
+
+man: install
+	$(BIN)/python -m weavecap.cli.manpages man

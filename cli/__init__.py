@@ -1,0 +1,1 @@
+"""The ``weavecap`` command line: click commands, one module each (installed as weavecap.cli)."""

@@ -1,0 +1,22 @@
+"""Options shared by several commands, defined once."""
+
+from __future__ import annotations
+
+import click
+
+force_option = click.option("--force", is_flag=True, help="Overwrite outputs that already exist.")
+seed_option = click.option("--seed", type=int, default=0, show_default=True,
+                           help="Random seed; the same seed gives the same result.")
+verbose_option = click.option("-v", "--verbose", count=True, help="Say more (repeat for more).")
+quiet_option = click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
+
+
+def parse_tiles(ctx, param, value: str) -> tuple[int, int]:
+    """Parse ``NxM`` (rows x columns of repeats), e.g. ``4x4``."""
+    try:
+        rows, cols = (int(v) for v in value.lower().split("x"))
+    except ValueError:
+        raise click.BadParameter(f"{value!r} is not of the form NxM, e.g. 4x4") from None
+    if not (1 <= rows <= 64 and 1 <= cols <= 64):
+        raise click.BadParameter(f"{value!r}: each count must be in [1, 64]")
+    return rows, cols

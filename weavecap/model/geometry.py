@@ -1,0 +1,230 @@
+"""Yarn geometry from a weave pattern: Algorithm 1 (Appendix A) and §5.1 of Wu et al. 2025.
+
+Coordinates (world units are those of Algorithm 1, where radii lie in Table 1's [1, 5]):
+
+- the fabric lies in the plane z = 0, the camera looks down -z;
+- warp ``j`` runs along +y at ``x = (j + 0.5) * PITCH``; weft ``i`` runs along +x at
+  ``y = (i + 0.5) * PITCH``; image rows grow with +y, columns with +x, so row ``i`` of the
+  pattern is weft ``i`` from the top and column ``j`` is warp ``j`` from the left;
+- ``pattern[i, j] == 1``: weft ``i`` passes over warp ``j``.
+
+Algorithm 1 spaces the yarns by their diameters; here the pitch is fixed at
+``PITCH = 2 * max radius`` (10 units) and the radius sets the gap between yarns, as §3.3
+("Yarn Gaps") describes: radius 5 closes the gaps, radius 1 leaves wide ones. Heights follow
+§5.1: ``CONTROL_POINTS_PER_CELL`` (12) control points per cell take the cell's up/down state,
+smoothed by a Gaussian of σ = 1 control point (window 16), cyclically so repeats tile; the top
+yarn's centre is ``+h/2`` and the bottom one's ``-h/2`` with ``h = r_a + r_e`` (touching).
+
+Why tube meshes and not Mitsuba's ``bsplinecurve``: on our scenes (``weavecap bench`` /
+``scripts/measure_geometry.py``) ray casting against triangle tubes was several times faster
+than against curves, a mesh carries texture coordinates for the procedural plies and fibres,
+curves load only from files in Mitsuba 3.9.1 (a file write per geometry change) and their
+back faces are culled, which breaks the exit-point rays of the transmission lobe.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.ndimage import gaussian_filter1d
+
+PITCH = 10.0  # distance between neighbouring yarn centres, in Algorithm 1 units
+CONTROL_POINTS_PER_CELL = 12  # §5.1
+HEIGHT_SIGMA = 1.0  # §5.1: Gaussian of standard deviation 1 control point ...
+HEIGHT_TRUNCATE = 8.0 / HEIGHT_SIGMA  # ... and size 16 (radius 8)
+SAMPLES_PER_CELL = 8  # spline evaluations per cell along a yarn when sweeping the tube
+RING = 10  # vertices around a tube's cross-section
+PAD_CELLS = 1  # extra cells at each end of a yarn so that splines reach past the frame
+
+
+@dataclass(frozen=True)
+class YarnCurves:
+    """Control points of every yarn of a patch of the fabric (Algorithm 1's c_e, c_a).
+
+    Attributes
+    ----------
+    weft, warp : list of (K, 3) float arrays
+        Control points of each weft (along +x) and each warp (along +y), world units.
+    weft_index, warp_index : (n,) int arrays
+        Which row (weft) or column (warp) of the tiled fabric each yarn is.
+    """
+
+    weft: list[np.ndarray]
+    warp: list[np.ndarray]
+    weft_index: np.ndarray
+    warp_index: np.ndarray
+
+
+def crossover_height(r_warp: float, r_weft: float) -> float:
+    """Vertical distance h between the centres of crossing yarns: they touch (§5.1, App. A)."""
+    return float(r_warp + r_weft)
+
+
+def smoothed_heights(states: np.ndarray) -> np.ndarray:
+    """Cyclic up/down profile of one yarn, one value in [0, 1] per control point (§5.1).
+
+    Parameters
+    ----------
+    states : (n,) array of 0/1
+        1 where this yarn is on top at each successive crossing.
+
+    Returns
+    -------
+    (n * CONTROL_POINTS_PER_CELL,) float array in [0, 1].
+    """
+    raw = np.repeat(np.asarray(states, dtype=np.float64), CONTROL_POINTS_PER_CELL)
+    return gaussian_filter1d(raw, HEIGHT_SIGMA, mode="wrap", truncate=HEIGHT_TRUNCATE)
+
+
+def control_points(pattern: np.ndarray, *, r_warp: float, r_weft: float,
+                   rows: tuple[int, int] | None = None, cols: tuple[int, int] | None = None) -> YarnCurves:
+    """Algorithm 1 for a window of the fabric tiled from ``pattern``.
+
+    Parameters
+    ----------
+    pattern : (n_e, n_a) array of 0/1
+        The minimum repeat; any size from 1×1 to 64×64, square or not.
+    r_warp, r_weft : float
+        Yarn radii r_a, r_e (Table 1: [1, 5]); they set the crossover height.
+    rows, cols : (start, stop), optional
+        Which wefts and warps of the infinite tiling to build (default: one repeat). Indices
+        may be negative or exceed the repeat; the pattern is read modulo its size.
+
+    Returns
+    -------
+    YarnCurves
+        Each yarn's control points span its window plus ``PAD_CELLS`` cells at both ends.
+    """
+    pattern = np.asarray(pattern, dtype=np.uint8)
+    if pattern.ndim != 2 or pattern.size == 0:
+        raise ValueError(f"pattern must be a non-empty 2-D array, got shape {pattern.shape}")
+    n_e, n_a = pattern.shape
+    r0, r1 = rows if rows is not None else (0, n_e)
+    c0, c1 = cols if cols is not None else (0, n_a)
+    h = crossover_height(r_warp, r_weft)
+    k = CONTROL_POINTS_PER_CELL
+
+    def profile(seq: np.ndarray, start: int, stop: int) -> tuple[np.ndarray, np.ndarray]:
+        """Heights along a yarn whose crossings repeat with ``seq``, from cell start-PAD to stop+PAD."""
+        period = smoothed_heights(seq)  # one period, control points at cell offsets (m + 0.5) / k
+        lo, hi = start - PAD_CELLS, stop + PAD_CELLS
+        idx = np.arange(lo * k, hi * k)
+        t = (idx + 0.5) / k  # position along the yarn in cells
+        return t * PITCH, (period[idx % period.size] - 0.5) * h
+
+    weft, weft_index = [], np.arange(r0, r1)
+    for i in weft_index:
+        along, z = profile(pattern[i % n_e, :], c0, c1)
+        weft.append(np.stack([along, np.full_like(along, (i + 0.5) * PITCH), z], axis=1))
+    warp, warp_index = [], np.arange(c0, c1)
+    for j in warp_index:
+        along, z = profile(1 - pattern[:, j % n_a], r0, r1)
+        warp.append(np.stack([np.full_like(along, (j + 0.5) * PITCH), along, z], axis=1))
+    return YarnCurves(weft=weft, warp=warp, weft_index=weft_index, warp_index=warp_index)
+
+
+def bspline(points: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray]:
+    """Evaluate a uniform cubic B-spline and its derivative at ``count`` even parameter steps.
+
+    Parameters
+    ----------
+    points : (K, 3) control points, K >= 4
+    count : number of evaluations from the start to the end of the curve (>= 2)
+
+    Returns
+    -------
+    positions, derivatives : (count, 3) arrays (derivative per unit of control-point index)
+    """
+    k = points.shape[0]
+    t = np.linspace(0.0, k - 3, count)
+    seg = np.minimum(t.astype(int), k - 4)
+    u = (t - seg)[:, None]
+    p0, p1, p2, p3 = (points[seg + o] for o in range(4))
+    pos = ((1 - u) ** 3 * p0 + (3 * u**3 - 6 * u**2 + 4) * p1 + (-3 * u**3 + 3 * u**2 + 3 * u + 1) * p2
+           + u**3 * p3) / 6.0
+    der = (-(1 - u) ** 2 * p0 + (3 * u**2 - 4 * u) * p1 + (-3 * u**2 + 2 * u + 1) * p2 + u**2 * p3) / 2.0
+    return pos, der
+
+
+@dataclass(frozen=True)
+class TubeMesh:
+    """Triangle tubes swept along yarn splines, ready for ``mi.Mesh``.
+
+    Attributes
+    ----------
+    positions, normals : (V, 3) float32
+    texcoords : (V, 2) float32
+        u = arc length / (2π r) along the yarn (one unit = one circumference), v = angle / 2π.
+    faces : (F, 3) uint32, counter-clockwise seen from outside
+    """
+
+    positions: np.ndarray
+    normals: np.ndarray
+    texcoords: np.ndarray
+    faces: np.ndarray
+
+
+def sweep_tubes(curves: list[np.ndarray], radius: float, *, side: np.ndarray,
+                samples_per_cell: int = SAMPLES_PER_CELL, ring: int = RING) -> TubeMesh:
+    """Sweep a circle of ``radius`` along each yarn's B-spline into one triangle mesh.
+
+    Parameters
+    ----------
+    curves : list of (K, 3) control-point arrays, each in a vertical plane
+    radius : float, tube radius in world units (> 0)
+    side : (3,) unit vector normal to the yarns' plane ((0, 1, 0) for wefts, (1, 0, 0) for warps)
+    """
+    if radius <= 0 or not np.isfinite(radius):
+        raise ValueError(f"radius must be a positive finite number, got {radius}")
+    angles = np.linspace(0.0, 2 * np.pi, ring, endpoint=False)
+    pos_all, nrm_all, uv_all, faces_all = [], [], [], []
+    offset = 0
+    side = np.asarray(side, dtype=np.float64)
+    for cp in curves:
+        cells = (cp.shape[0] - 3) / CONTROL_POINTS_PER_CELL
+        pos, der = bspline(cp, max(2, int(round(cells * samples_per_cell)) + 1))
+        tangent = der / np.linalg.norm(der, axis=1, keepdims=True)
+        up = np.cross(side, tangent)  # in the yarn's vertical plane, pointing up (+z-ish)
+        if up[:, 2].mean() < 0:
+            up = -up
+        arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pos, axis=0), axis=1))])
+        cos_a, sin_a = np.cos(angles), np.sin(angles)
+        n = (up[:, None, :] * cos_a[None, :, None] + side[None, None, :] * sin_a[None, :, None])
+        p = pos[:, None, :] + radius * n
+        s_count = pos.shape[0]
+        uv = np.stack(np.broadcast_arrays((arc / (2 * np.pi * radius))[:, None], (angles / (2 * np.pi))[None, :]),
+                      axis=-1)
+        pos_all.append(p.reshape(-1, 3))
+        nrm_all.append(n.reshape(-1, 3))
+        uv_all.append(uv.reshape(-1, 2))
+        a = np.arange(s_count - 1)[:, None] * ring + np.arange(ring)[None, :]
+        b = np.arange(s_count - 1)[:, None] * ring + (np.arange(ring)[None, :] + 1) % ring
+        c, d = a + ring, b + ring
+        quads = np.stack([a, c, b, b, c, d], axis=-1).reshape(-1, 3)
+        faces_all.append(quads + offset)
+        offset += s_count * ring
+    mesh = TubeMesh(positions=np.concatenate(pos_all).astype(np.float32),
+                    normals=np.concatenate(nrm_all).astype(np.float32),
+                    texcoords=np.concatenate(uv_all).astype(np.float32),
+                    faces=np.concatenate(faces_all).astype(np.uint32))
+    return _outward(mesh)
+
+
+def _outward(mesh: TubeMesh) -> TubeMesh:
+    """Flip the winding if the geometric normals point into the tubes (meshes are one-sided)."""
+    v = mesh.positions[mesh.faces].astype(np.float64)
+    geo = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
+    shading = mesh.normals[mesh.faces].sum(axis=1)
+    if np.sum(geo * shading) < 0:
+        return TubeMesh(mesh.positions, mesh.normals, mesh.texcoords, mesh.faces[:, [0, 2, 1]].copy())
+    return mesh
+
+
+def fabric_meshes(pattern: np.ndarray, *, r_warp: float, r_weft: float,
+                  rows: tuple[int, int], cols: tuple[int, int]) -> tuple[TubeMesh, TubeMesh]:
+    """Weft and warp tube meshes of the window ``rows`` × ``cols`` of the tiled fabric."""
+    curves = control_points(pattern, r_warp=r_warp, r_weft=r_weft, rows=rows, cols=cols)
+    wefts = sweep_tubes(curves.weft, r_weft, side=np.array([0.0, 1.0, 0.0]))
+    warps = sweep_tubes(curves.warp, r_warp, side=np.array([1.0, 0.0, 0.0]))
+    return wefts, warps

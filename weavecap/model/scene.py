@@ -1,0 +1,266 @@
+"""A close-up scene of a fabric: yarn meshes, camera and the light rig of §6.4 (Wu et al. 2025).
+
+:class:`FabricScene` owns the Mitsuba scene (one tube mesh for the wefts, one for the warps,
+each carrying a :class:`~weavecap.model.bysdf.BYSDF`) and one store of Dr.Jit values, keyed
+by the dotted names of :data:`weavecap.params.FIT_RANGES`, that both those plugins and
+:mod:`weavecap.model.render` read. Changing a continuous value never recompiles a kernel; a
+new pattern or radius rebuilds the meshes (a few ms).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import InputError
+from ..params import Fabric
+from . import bysdf as _bysdf
+from .geometry import PITCH, TubeMesh, crossover_height, fabric_meshes
+
+mi = _bysdf.mi
+dr = _bysdf.dr
+
+#: shading keys of :class:`weavecap.model.bysdf.Shading` → dotted fabric keys
+SHADING_KEYS = {
+    "coefficient": "specular.coefficient", "reflection": "specular.reflection",
+    "transmission": "specular.transmission", "transmission_exit": "specular.transmission_exit",
+    "roughness": "specular.roughness", "roughness_exit": "specular.roughness_exit",
+    "ior": "specular.ior", "ior_exit": "specular.ior_exit", "attenuation": "specular.attenuation",
+    "body_attenuation": "body_attenuation", "ply_shadow": "shadowing.ply", "fiber_shadow": "shadowing.fiber",
+    "plies": "plies", "fibers": "fibers",
+}
+YARN_KEYS = ("warp.body_reflection", "weft.body_reflection", "warp.body_subsurface", "weft.body_subsurface")
+GEOMETRY_KEYS = ("warp.radius", "weft.radius")
+
+
+@dataclass(frozen=True)
+class Light:
+    """A directional light: unit ``direction`` towards the light (world), irradiance ``E``."""
+
+    direction: tuple[float, float, float]
+    irradiance: float
+
+
+def _unit(x, y, z) -> tuple[float, float, float]:
+    n = math.sqrt(x * x + y * y + z * z)
+    return (x / n, y / n, z / n)
+
+
+@dataclass(frozen=True)
+class LightRig:
+    """§6.4: an ambient light and directional lights; ``backdrop`` is the radiance seen
+    through the gaps between yarns (a lit panel behind the fabric, or the room).
+
+    The camera looks down -z, so "front" lights have z > 0 and "back" lights z < 0.
+    """
+
+    ambient: float
+    lights: tuple[Light, ...]
+    backdrop: float
+    name: str = "custom"
+
+    @property
+    def lit_from_back(self) -> bool:
+        return any(light.direction[2] < 0 for light in self.lights)
+
+
+FRONT = Light(_unit(0.25, -0.35, 1.0), 1.0)
+BACK = Light(_unit(0.1, 0.15, -1.0), 1.0)
+SIDES = (Light(_unit(1.0, 0.0, 0.45), 0.45), Light(_unit(-1.0, 0.0, 0.45), 0.45))
+
+
+def light_rig(which: str = "both") -> LightRig:
+    """The default rig (``both``: ambient + front, back and two side lights, §6.4), or the
+    front-only / back-only rigs for photos whose lighting is known."""
+    if which == "both":
+        return LightRig(ambient=0.12, lights=(FRONT, BACK) + SIDES, backdrop=BACK.irradiance, name="both")
+    if which == "front":
+        return LightRig(ambient=0.15, lights=(FRONT,) + SIDES, backdrop=0.05, name="front")
+    if which == "back":
+        return LightRig(ambient=0.05, lights=(BACK,), backdrop=BACK.irradiance, name="back")
+    raise InputError(f"light rig {which!r} is unknown; use one of both, front, back")
+
+
+@dataclass(frozen=True)
+class View:
+    """What the camera sees.
+
+    Attributes
+    ----------
+    tiles : (rows, cols) of repeats in the frame
+    size : pixels along the longer side of the frame (the other follows the aspect ratio)
+    camera : ``"orthographic"`` (a flat close-up) or ``"perspective"``
+    fov_deg : field of view of the perspective camera along the longer side
+    rotate_deg : the fabric appears turned by this angle, counter-clockwise, in the image
+    spp : samples per pixel (a stratified grid; 1 = pixel centres). Directional and ambient
+        light are evaluated exactly, so samples only antialias edges.
+    """
+
+    tiles: tuple[int, int] = (1, 1)
+    size: int = 128
+    camera: str = "orthographic"
+    fov_deg: float = 30.0
+    rotate_deg: float = 0.0
+    spp: int = 4
+
+    def __post_init__(self):
+        if self.camera not in ("orthographic", "perspective"):
+            raise InputError(f"camera {self.camera!r} is unknown; use orthographic or perspective")
+        if not (8 <= self.size <= 8192):
+            raise InputError(f"image size {self.size} is out of range; allowed [8, 8192] pixels")
+        if not (1 <= self.spp <= 1024):
+            raise InputError(f"spp {self.spp} is out of range; allowed [1, 1024]")
+        if not (1.0 <= self.fov_deg <= 120.0):
+            raise InputError(f"field of view {self.fov_deg} is out of range; allowed [1, 120] degrees")
+        if not all(1 <= t <= 64 for t in self.tiles):
+            raise InputError(f"tiles {self.tiles} out of range; allowed 1..64 repeats per axis")
+
+
+@dataclass
+class Frame:
+    """The camera frame in world units: centre, size, pixel grid and the yarn window to build."""
+
+    center: tuple[float, float]
+    extent: tuple[float, float]  # (width, height) of the un-rotated frame, world units
+    shape: tuple[int, int]  # (height, width) in pixels
+    rows: tuple[int, int]  # wefts to build
+    cols: tuple[int, int]  # warps to build
+    eye_height: float = 0.0  # perspective camera height above the fabric (0 for orthographic)
+
+
+def make_frame(pattern_shape: tuple[int, int], view: View) -> Frame:
+    """Where the camera looks and which yarns must exist to fill its picture."""
+    n_e, n_a = pattern_shape
+    width = view.tiles[1] * n_a * PITCH
+    height = view.tiles[0] * n_e * PITCH
+    if width >= height:
+        shape = (max(1, round(view.size * height / width)), view.size)
+    else:
+        shape = (view.size, max(1, round(view.size * width / height)))
+    cx, cy = width / 2.0, height / 2.0
+    theta = math.radians(view.rotate_deg)
+    half_w = 0.5 * (abs(width * math.cos(theta)) + abs(height * math.sin(theta)))
+    half_h = 0.5 * (abs(width * math.sin(theta)) + abs(height * math.cos(theta)))
+    eye = 0.0
+    if view.camera == "perspective":
+        eye = 0.5 * max(width, height) / math.tan(math.radians(view.fov_deg) / 2.0)
+        margin = 1.5  # rays at the frame edge meet the yarns' tops before the plane z = 0
+        half_w, half_h = half_w * margin, half_h * margin
+    rows = (math.floor((cy - half_h) / PITCH) - 1, math.ceil((cy + half_h) / PITCH) + 1)
+    cols = (math.floor((cx - half_w) / PITCH) - 1, math.ceil((cx + half_w) / PITCH) + 1)
+    return Frame(center=(cx, cy), extent=(width, height), shape=shape, rows=rows, cols=cols, eye_height=eye)
+
+
+def _mesh(name: str, tubes: TubeMesh, bsdf_obj):
+    props = mi.Properties()
+    props["bsdf"] = bsdf_obj
+    mesh = mi.Mesh(name, tubes.positions.shape[0], tubes.faces.shape[0], props=props,
+                   has_vertex_normals=True, has_vertex_texcoords=True)
+    params = mi.traverse(mesh)
+    params["vertex_positions"] = mi.Float(tubes.positions.ravel())
+    params["faces"] = mi.UInt32(tubes.faces.ravel())
+    params["vertex_normals"] = mi.Float(tubes.normals.ravel())
+    params["vertex_texcoords"] = mi.Float(tubes.texcoords.ravel())
+    params.update()
+    return mesh
+
+
+def _texture(path: str):
+    """A body-colour texture (linear RGB, wrapped over one repeat of the fabric) and its mean."""
+    from ..photo import load_photo
+
+    rgb = np.clip(load_photo(path).rgb, 0.0, 1.0).astype(np.float32)
+    tex = mi.Texture2f(mi.TensorXf(rgb), filter_mode=dr.FilterMode.Linear, wrap_mode=dr.WrapMode.Repeat)
+    return tex, tuple(float(c) for c in rgb.reshape(-1, 3).mean(axis=0))
+
+
+@dataclass
+class FabricScene:
+    """A fabric set up for rendering: meshes, frame, lights and the parameter store.
+
+    Build it with :func:`build_scene`. ``values`` maps every dotted key of
+    :data:`weavecap.params.FIT_RANGES` except the radii and body textures to a Dr.Jit value
+    (``mi.Float`` or ``mi.Color3f``); enable gradients on them to differentiate a render.
+    """
+
+    fabric: Fabric
+    view: View
+    rig: LightRig
+    frame: Frame
+    scene: object
+    values: dict
+    textures: dict = field(default_factory=dict)
+    warp_shape: object = None
+    z_range: tuple[float, float] = (0.0, 1.0)
+
+    def set(self, key: str, value) -> None:
+        """Set one parameter by dotted key; a radius rebuilds the geometry."""
+        if key in GEOMETRY_KEYS:
+            self.fabric = self.fabric.replace({key: float(value)})
+            _rebuild(self)
+            return
+        if key not in self.values:
+            raise KeyError(f"{key} is not a renderable parameter")
+        old = self.values[key]
+        new = type(old)(*np.atleast_1d(np.asarray(value, dtype=np.float64)).tolist()) if isinstance(old, mi.Color3f) \
+            else mi.Float(float(value))
+        dr.make_opaque(new)
+        self.values[key] = new
+        for plugin in self._plugins():
+            plugin.values.update({sk: self.values[fk] for sk, fk in SHADING_KEYS.items()})
+
+    def _plugins(self):
+        return [shape.bsdf() for shape in self.scene.shapes()]
+
+    def shading(self) -> "_bysdf.Shading":
+        """The shared BYSDF parameters, from the store."""
+        return _bysdf.Shading(**{sk: self.values[fk] for sk, fk in SHADING_KEYS.items()})
+
+
+def _initial_values(fabric: Fabric) -> dict:
+    values = {}
+    for key in list(SHADING_KEYS.values()) + list(YARN_KEYS):
+        v = fabric.get(key)
+        if isinstance(v, str):  # a texture: the store holds its mean colour for lobe weights
+            continue
+        values[key] = mi.Color3f(*v) if isinstance(v, tuple) else mi.Float(float(v))
+        dr.make_opaque(values[key])
+    return values
+
+
+def _rebuild(fs: FabricScene) -> None:
+    fabric, frame = fs.fabric, fs.frame
+    wefts, warps = fabric_meshes(fabric.pattern, r_warp=fabric.warp.radius, r_weft=fabric.weft.radius,
+                                 rows=frame.rows, cols=frame.cols)
+    shading = {sk: fs.values[fk] for sk, fk in SHADING_KEYS.items()}
+    plugins = []
+    for yarn in ("weft", "warp"):
+        plugin = _bysdf.BYSDF(mi.Properties())
+        plugin.values.update(shading)
+        for key in ("body_reflection", "body_subsurface"):
+            if f"{yarn}.{key}" in fs.values:
+                plugin.values[key] = fs.values[f"{yarn}.{key}"]
+        plugins.append(plugin)
+    weft_mesh = _mesh("wefts", wefts, plugins[0])
+    warp_mesh = _mesh("warps", warps, plugins[1])
+    fs.scene = mi.load_dict({"type": "scene", "wefts": weft_mesh, "warps": warp_mesh})
+    fs.warp_shape = mi.ShapePtr(warp_mesh)
+    top = crossover_height(fabric.warp.radius, fabric.weft.radius) / 2 + max(fabric.warp.radius, fabric.weft.radius)
+    fs.z_range = (-top, top)
+
+
+def build_scene(fabric: Fabric, view: View | None = None, *, light: str | LightRig = "both") -> FabricScene:
+    """Set up ``fabric`` for rendering under ``view`` and a light rig (name or :class:`LightRig`)."""
+    view = view or View()
+    rig = light if isinstance(light, LightRig) else light_rig(light)
+    frame = make_frame(fabric.shape, view)
+    fs = FabricScene(fabric=fabric, view=view, rig=rig, frame=frame, scene=None, values=_initial_values(fabric))
+    for yarn in ("warp", "weft"):
+        tex = fabric.get(f"{yarn}.body_reflection")
+        if isinstance(tex, str):
+            fs.textures[f"{yarn}.body_reflection"], mean = _texture(tex)
+            fs.values[f"{yarn}.body_reflection"] = mi.Color3f(*mean)  # for lobe weights and plugins
+    _rebuild(fs)
+    return fs

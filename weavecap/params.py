@@ -1,0 +1,338 @@
+"""The fabric: typed parameters of ``params.schema.json``, loaded, validated and saved.
+
+One fabric is the parameter set of Table 1 in Wu et al. 2025 (§3.3, §3.4): a binary weave
+pattern, the numbers of plies and fibres, yarn radii, and the BYSDF appearance parameters.
+Names follow the schema (snake_case); colours are linear RGB in [0, 1].
+
+Two kinds of range live here, each in one place:
+
+- validity: what the schema allows (``weavecap/schemas/params.schema.json``, a copy of the
+  contract); every message names the field, the value and the allowed range;
+- :data:`FIT_RANGES`: Table 1's empirical ranges, used for sampling training data, for the
+  initializer's output scaling and for the barrier and clamping of the fit (§5.3, §6.1).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import os
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any, Union
+
+import numpy as np
+
+from .errors import ParamsError
+
+FORMAT = "weavecap.params/1"
+
+RGB = tuple[float, float, float]
+Colour = Union[RGB, str]  # an RGB colour, or an absolute path to a texture image
+
+#: Table 1 of Wu et al. 2025: the empirical range of every fitted parameter, by dotted key.
+#: Colours are per channel. Discrete ones are inclusive integer ranges.
+FIT_RANGES: dict[str, tuple[float, float]] = {
+    "plies": (1, 7),
+    "fibers": (20, 50),
+    "specular.coefficient": (0.2, 0.8),
+    "specular.reflection": (0.0, 1.0),
+    "specular.transmission": (0.0, 1.0),
+    "specular.transmission_exit": (0.0, 1.0),
+    "specular.roughness": (0.0, 1.0),
+    "specular.roughness_exit": (0.0, 1.0),
+    "specular.ior": (1.4, 1.6),
+    "specular.ior_exit": (1.4, 1.6),
+    "specular.attenuation": (9.0, 11.0),
+    "body_attenuation": (0.1, 0.7),
+    "warp.body_reflection": (0.0, 1.0),
+    "weft.body_reflection": (0.0, 1.0),
+    "warp.body_subsurface": (0.0, 1.0),
+    "weft.body_subsurface": (0.0, 1.0),
+    "warp.radius": (1.0, 5.0),
+    "weft.radius": (1.0, 5.0),
+    "shadowing.ply": (0.0, 1.0),
+    "shadowing.fiber": (0.0, 1.0),
+}
+
+#: The continuous parameters (Table 1, lower block), in a fixed order.
+CONTINUOUS_KEYS: tuple[str, ...] = tuple(k for k in FIT_RANGES if k not in ("plies", "fibers"))
+
+
+@dataclass(frozen=True)
+class Yarn:
+    """Warp or weft yarn: radius r_a / r_e (Algorithm 1 units) and body colours R^B, S^B."""
+
+    radius: float
+    body_reflection: Colour
+    body_subsurface: RGB
+
+
+@dataclass(frozen=True)
+class Specular:
+    """The specular (rough dielectric) part of the BYSDF, §3.3 Eq. 1–2."""
+
+    coefficient: float  # m_r
+    reflection: RGB  # R^S
+    transmission: RGB  # T^S
+    transmission_exit: RGB  # T^S_y
+    roughness: float  # alpha^S
+    roughness_exit: float  # alpha^S_y
+    ior: float  # eta^S
+    ior_exit: float  # eta^S_y
+    attenuation: float  # A^S
+
+
+@dataclass(frozen=True)
+class Shadowing:
+    """Ply and fibre self-shadowing strengths G_p, G_f (§3.3)."""
+
+    ply: float
+    fiber: float
+
+
+@dataclass(frozen=True)
+class Fabric:
+    """One woven fabric (Table 1). ``pattern`` is (wefts, warps) uint8; 1 = weft over warp."""
+
+    pattern: np.ndarray
+    plies: int
+    fibers: int
+    warp: Yarn
+    weft: Yarn
+    specular: Specular
+    body_attenuation: float
+    shadowing: Shadowing
+    noise: dict | None = None
+    scale: dict | None = None
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(wefts, warps) of the minimum repeat."""
+        return (int(self.pattern.shape[0]), int(self.pattern.shape[1]))
+
+    def get(self, key: str) -> Any:
+        """Value of a dotted key, e.g. ``get("specular.ior")``."""
+        obj: Any = self
+        for part in key.split("."):
+            obj = getattr(obj, part)
+        return obj
+
+    def replace(self, values: dict[str, Any]) -> "Fabric":
+        """A copy with dotted keys replaced, e.g. ``replace({"warp.radius": 2.5})``.
+
+        The result is validated: an out-of-range value raises :class:`ParamsError`.
+        """
+        doc = to_dict(self)
+        for key, value in values.items():
+            node = doc
+            parts = key.split(".")
+            for part in parts[:-1]:
+                node = node[part]
+            if parts[-1] not in node:
+                raise ParamsError("no such parameter", field=key)
+            node[parts[-1]] = np.asarray(value).tolist() if not isinstance(value, str) else value
+        return from_dict(doc)
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, Fabric) and to_dict(self) == to_dict(other)
+
+    __hash__ = None  # mutable numpy member
+
+
+# ---------------------------------------------------------------------------------------------
+# validation
+
+
+def _schema() -> dict:
+    with resources.files("weavecap").joinpath("schemas/params.schema.json").open() as fh:
+        return json.load(fh)
+
+
+def _dotted(path) -> str:
+    out = ""
+    for part in path:
+        out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else str(part))
+    return out
+
+
+def _allowed(schema: dict) -> str:
+    """The allowed range or values of one schema node, for a message."""
+    if "enum" in schema:
+        return "one of " + ", ".join(json.dumps(v) for v in schema["enum"])
+    if "const" in schema:
+        return f"exactly {json.dumps(schema['const'])}"
+    lo = schema.get("minimum", schema.get("exclusiveMinimum"))
+    hi = schema.get("maximum", schema.get("exclusiveMaximum"))
+    lo_s = "(" if "exclusiveMinimum" in schema else "["
+    hi_s = ")" if "exclusiveMaximum" in schema else "]"
+    kind = schema.get("type", "number")
+    if lo is not None and hi is not None:
+        return f"a {kind} in {lo_s}{lo}, {hi}{hi_s}"
+    if lo is not None:
+        return f"a {kind} {'>' if lo_s == '(' else '>='} {lo}"
+    if hi is not None:
+        return f"a {kind} {'<' if hi_s == ')' else '<='} {hi}"
+    if "minItems" in schema or "maxItems" in schema:
+        return f"a list of {schema.get('minItems', 0)} to {schema.get('maxItems', 'any number of')} items"
+    return f"a {kind}" if isinstance(kind, str) else "a valid value"
+
+
+def _non_finite(doc: Any, path: tuple = ()) -> tuple | None:
+    """Path of the first NaN or infinity in a parsed JSON document, or None."""
+    if isinstance(doc, float) and not math.isfinite(doc):
+        return path
+    if isinstance(doc, dict):
+        items = doc.items()
+    elif isinstance(doc, list):
+        items = enumerate(doc)
+    else:
+        return None
+    for key, value in items:
+        found = _non_finite(value, path + (key,))
+        if found is not None:
+            return found
+    return None
+
+
+def validate(doc: Any, *, path: str | None = None) -> None:
+    """Check a parsed params document against the schema; raise :class:`ParamsError` naming
+    the field, the value and the allowed range of the first problem found."""
+    import jsonschema
+
+    bad = _non_finite(doc)
+    if bad is not None:
+        raise ParamsError("NaN and infinity are not allowed; give a finite number", field=_dotted(bad), path=path)
+    validator = jsonschema.Draft202012Validator(_schema())
+    errors = sorted(validator.iter_errors(doc), key=lambda e: (len(e.absolute_path), list(map(str, e.absolute_path))))
+    if not errors:
+        _check_pattern_shape(doc, path)
+        return
+    err = errors[0]
+    # for oneOf (colour or texture path), report the closest sub-error
+    if err.validator == "oneOf" and err.context:
+        err = min(err.context, key=lambda e: len(e.absolute_path)) if err.context else err
+        err_path = list(errors[0].absolute_path) + list(err.absolute_path)
+    else:
+        err_path = list(err.absolute_path)
+    fld = _dotted(err_path) or "(top level)"
+    if err.validator == "required":
+        missing = err.message.split("'")[1] if "'" in err.message else err.message
+        name = f"{fld}.{missing}" if err_path else missing
+        raise ParamsError(f"missing required field (allowed: {_allowed(err.schema.get('properties', {}).get(missing, {}))})",
+                          field=name, path=path)
+    if err.validator == "additionalProperties":
+        raise ParamsError(f"{err.message}; extra keys belong under 'extra'", field=fld, path=path)
+    raise ParamsError(f"{json.dumps(err.instance)[:60]} is not allowed; expected {_allowed(err.schema)}",
+                      field=fld, path=path)
+
+
+def _check_pattern_shape(doc: dict, path: str | None) -> None:
+    rows = doc["pattern"]
+    width = len(rows[0])
+    for i, row in enumerate(rows):
+        if len(row) != width:
+            raise ParamsError(f"row {i} has {len(row)} cells but row 0 has {width}; the pattern must be rectangular",
+                              field=f"pattern[{i}]", path=path)
+
+
+# ---------------------------------------------------------------------------------------------
+# conversion
+
+
+def _rgb(value: Any) -> RGB:
+    return (float(value[0]), float(value[1]), float(value[2]))
+
+
+def _colour(value: Any, base: Path | None, fld: str, path: str | None) -> Colour:
+    if isinstance(value, str):
+        tex = Path(value)
+        if not tex.is_absolute() and base is not None:
+            tex = base / tex
+        if not tex.is_file():
+            raise ParamsError(f"texture file {str(tex)!r} does not exist; give a path relative to the params file "
+                              "or an RGB colour [r, g, b] in [0, 1]", field=fld, path=path)
+        return str(tex.resolve())
+    return _rgb(value)
+
+
+def from_dict(doc: Any, *, base: Path | None = None, path: str | None = None) -> Fabric:
+    """Validate a parsed document and build a :class:`Fabric`. ``base``: folder for textures."""
+    validate(doc, path=path)
+
+    def yarn(d: dict, name: str) -> Yarn:
+        return Yarn(radius=float(d["radius"]),
+                    body_reflection=_colour(d["body_reflection"], base, f"{name}.body_reflection", path),
+                    body_subsurface=_rgb(d["body_subsurface"]))
+
+    s = doc["specular"]
+    return Fabric(
+        pattern=np.asarray(doc["pattern"], dtype=np.uint8),
+        plies=int(doc["plies"]),
+        fibers=int(doc["fibers"]),
+        warp=yarn(doc["warp"], "warp"),
+        weft=yarn(doc["weft"], "weft"),
+        specular=Specular(
+            coefficient=float(s["coefficient"]), reflection=_rgb(s["reflection"]),
+            transmission=_rgb(s["transmission"]), transmission_exit=_rgb(s["transmission_exit"]),
+            roughness=float(s["roughness"]), roughness_exit=float(s["roughness_exit"]),
+            ior=float(s["ior"]), ior_exit=float(s["ior_exit"]), attenuation=float(s["attenuation"])),
+        body_attenuation=float(doc["body_attenuation"]),
+        shadowing=Shadowing(ply=float(doc["shadowing"]["ply"]), fiber=float(doc["shadowing"]["fiber"])),
+        noise=doc.get("noise"),
+        scale=doc.get("scale"),
+        extra=dict(doc.get("extra", {})),
+    )
+
+
+def to_dict(fabric: Fabric) -> dict:
+    """The JSON document of a fabric (texture paths stay absolute; :func:`save` relativises)."""
+    doc: dict[str, Any] = {"format": FORMAT, "pattern": fabric.pattern.astype(int).tolist()}
+    for f in dataclasses.fields(fabric):
+        if f.name == "pattern":
+            continue
+        value = getattr(fabric, f.name)
+        if value is None:
+            continue
+        doc[f.name] = dataclasses.asdict(value) if dataclasses.is_dataclass(value) else value
+    # tuples → lists so that the document equals its JSON round trip
+    return json.loads(json.dumps(doc))
+
+
+def load(path: str | os.PathLike) -> Fabric:
+    """Read and validate a params file. Raises :class:`ParamsError` (exit 2) for anything wrong."""
+    p = Path(path)
+    if not p.is_file():
+        raise ParamsError("file not found; give the path of a params.json file", path=str(p))
+    try:
+        text = p.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ParamsError(f"cannot read the file as UTF-8 text ({exc})", path=str(p)) from exc
+    try:
+        doc = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise ParamsError(f"not valid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}", path=str(p)) from exc
+    return from_dict(doc, base=p.parent, path=str(p))
+
+
+def dumps(fabric: Fabric, *, base: Path | None = None) -> str:
+    """JSON text of a fabric, with texture paths relative to ``base`` where possible."""
+    doc = to_dict(fabric)
+    if base is not None:
+        for yarn in ("warp", "weft"):
+            tex = doc[yarn]["body_reflection"]
+            if isinstance(tex, str):
+                doc[yarn]["body_reflection"] = os.path.relpath(tex, base)
+    validate(doc)
+    return json.dumps(doc, indent=1) + "\n"
+
+
+def save(fabric: Fabric, path: str | os.PathLike) -> None:
+    """Write a params file atomically (temporary name, then rename)."""
+    from .io import atomic_write_text
+
+    p = Path(path)
+    atomic_write_text(p, dumps(fabric, base=p.parent.resolve()))

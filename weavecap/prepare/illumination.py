@@ -1,0 +1,61 @@
+"""Flattening uneven lighting (vignetting, broad highlights, a back-light hot spot).
+
+Not a section of Wu et al. 2025 on its own: §4 assumes "approximately soft and uniform" room
+light. Real photos break that, and the Radon, DMF and projection steps assume a stationary
+texture, so the slowly varying part of the brightness is divided out first.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+
+def luminance(rgb: np.ndarray) -> np.ndarray:
+    """Linear luminance (Rec. 709) of an H×W×3 linear RGB image, or the image itself if H×W."""
+    if rgb.ndim == 2:
+        return rgb.astype(np.float32, copy=False)
+    return (rgb[..., :3] @ np.array([0.2126, 0.7152, 0.0722], np.float32)).astype(np.float32)
+
+
+def illumination_field(grey: np.ndarray, *, sigma_px: float) -> np.ndarray:
+    """The slowly varying brightness of a photo: a Gaussian low-pass of ``grey``.
+
+    Parameters
+    ----------
+    grey : (H, W) float array, linear.
+    sigma_px : σ of the low-pass in pixels; a few yarn pitches, so that the weave itself
+        averages out.
+
+    Returns
+    -------
+    (H, W) float32 array, strictly positive.
+    """
+    g = grey.astype(np.float32)
+    h, w = g.shape
+    # blur a downscaled copy: the field is smooth, and this keeps big photos cheap
+    f = max(1.0, sigma_px / 4.0)
+    small = cv2.resize(g, (max(1, round(w / f)), max(1, round(h / f))), interpolation=cv2.INTER_AREA)
+    small = cv2.GaussianBlur(small, (0, 0), sigma_px / f, borderType=cv2.BORDER_REFLECT)
+    field = cv2.resize(small, (w, h), interpolation=cv2.INTER_LINEAR)
+    floor = max(1e-4, 0.02 * float(np.mean(g)))
+    return np.maximum(field, floor)
+
+
+def flatten_illumination(image: np.ndarray, *, sigma_px: float) -> tuple[np.ndarray, np.ndarray]:
+    """Divide out the lighting of a linear image, keeping its mean brightness.
+
+    Parameters
+    ----------
+    image : (H, W) or (H, W, 3) float array, linear.
+    sigma_px : σ of the lighting low-pass in pixels (see :func:`illumination_field`).
+
+    Returns
+    -------
+    flat : same shape as ``image``, float32, lit evenly.
+    gain : (H, W) float32, the relative lighting (mean 1) that was divided out.
+    """
+    field = illumination_field(luminance(image), sigma_px=sigma_px)
+    gain = (field / float(np.mean(field))).astype(np.float32)
+    flat = image / (gain[..., None] if image.ndim == 3 else gain)
+    return flat.astype(np.float32), gain
