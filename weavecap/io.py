@@ -21,6 +21,13 @@ def refuse_overwrite(path: str | os.PathLike, *, force: bool) -> None:
         raise InputError(f"{path}: already exists; pass --force to overwrite it, or choose another output name")
 
 
+def _new_file_mode() -> int:
+    """The mode ``open()`` would give a new file: 0666 less the process umask."""
+    umask = os.umask(0o022)
+    os.umask(umask)
+    return 0o666 & ~umask
+
+
 @contextlib.contextmanager
 def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     """Yield a temporary path beside ``path`` (same suffix); rename it onto ``path`` on success.
@@ -34,6 +41,7 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     tmp_path = Path(tmp)
     try:
         yield tmp_path
+        os.chmod(tmp_path, _new_file_mode())  # mkstemp's 0600 would hide results from others
         os.replace(tmp_path, dest)
     finally:
         if tmp_path.exists():

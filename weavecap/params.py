@@ -170,15 +170,16 @@ def _allowed(schema: dict) -> str:
     lo_s = "(" if "exclusiveMinimum" in schema else "["
     hi_s = ")" if "exclusiveMaximum" in schema else "]"
     kind = schema.get("type", "number")
+    a_kind = f"{'an' if str(kind)[0] in 'aeiou' else 'a'} {kind}"
     if lo is not None and hi is not None:
-        return f"a {kind} in {lo_s}{lo}, {hi}{hi_s}"
+        return f"{a_kind} in {lo_s}{lo}, {hi}{hi_s}"
     if lo is not None:
-        return f"a {kind} {'>' if lo_s == '(' else '>='} {lo}"
+        return f"{a_kind} {'>' if lo_s == '(' else '>='} {lo}"
     if hi is not None:
-        return f"a {kind} {'<' if hi_s == ')' else '<='} {hi}"
+        return f"{a_kind} {'<' if hi_s == ')' else '<='} {hi}"
     if "minItems" in schema or "maxItems" in schema:
         return f"a list of {schema.get('minItems', 0)} to {schema.get('maxItems', 'any number of')} items"
-    return f"a {kind}" if isinstance(kind, str) else "a valid value"
+    return a_kind if isinstance(kind, str) else "a valid value"
 
 
 def _non_finite(doc: Any, path: tuple = ()) -> tuple | None:
@@ -198,26 +199,41 @@ def _non_finite(doc: Any, path: tuple = ()) -> tuple | None:
     return None
 
 
+def _schema_at(schema: dict, path: tuple) -> dict:
+    """The schema node that governs ``path`` (colours: the RGB branch), for a message."""
+
+    def deref(node: dict) -> dict:
+        while "$ref" in node:
+            node = schema["$defs"][node["$ref"].rsplit("/", 1)[-1]]
+        return node["oneOf"][0] if "oneOf" in node else node
+
+    node = deref(schema)
+    for part in path:
+        node = deref(node.get("items", {}) if isinstance(part, int) else node.get("properties", {}).get(part, {}))
+    return deref(node)
+
+
 def validate(doc: Any, *, path: str | None = None) -> None:
     """Check a parsed params document against the schema; raise :class:`ParamsError` naming
     the field, the value and the allowed range of the first problem found."""
     import jsonschema
 
+    schema = _schema()
     bad = _non_finite(doc)
     if bad is not None:
-        raise ParamsError("NaN and infinity are not allowed; give a finite number", field=_dotted(bad), path=path)
-    validator = jsonschema.Draft202012Validator(_schema())
+        raise ParamsError(f"NaN and infinity are not allowed; expected {_allowed(_schema_at(schema, bad))}",
+                          field=_dotted(bad), path=path)
+    validator = jsonschema.Draft202012Validator(schema)
     errors = sorted(validator.iter_errors(doc), key=lambda e: (len(e.absolute_path), list(map(str, e.absolute_path))))
     if not errors:
         _check_pattern_shape(doc, path)
         return
     err = errors[0]
-    # for oneOf (colour or texture path), report the closest sub-error
+    # for oneOf (colour or texture path), report the deepest sub-error: it names the channel
+    # (a sub-error's absolute_path already includes its parent's path)
     if err.validator == "oneOf" and err.context:
-        err = min(err.context, key=lambda e: len(e.absolute_path)) if err.context else err
-        err_path = list(errors[0].absolute_path) + list(err.absolute_path)
-    else:
-        err_path = list(err.absolute_path)
+        err = max(err.context, key=lambda e: len(e.relative_path))
+    err_path = list(err.absolute_path)
     fld = _dotted(err_path) or "(top level)"
     if err.validator == "required":
         missing = err.message.split("'")[1] if "'" in err.message else err.message

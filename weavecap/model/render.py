@@ -6,19 +6,26 @@ The integrator is ours, written in Dr.Jit over Mitsuba's ray queries, because th
 way of every shadow ray; here the shadow ray of a transmitted light starts at the exit point y
 where it leaves the yarn (the point of §3.3's f_y^S), and is blocked only by other yarns.
 
-Per camera sample: one primary ray; per directional light one shadow ray (two for a light
-behind the surface); the ambient light as the BYSDF's directional albedo times a height-based
-occlusion term (no rays). Everything is deterministic for a given seed; with ``spp = 1`` the
-samples sit at pixel centres and the seed plays no part.
+Per camera sample: one primary ray; per front light one shadow ray; per back light an
+exit-point ray and a shadow ray; the ambient light as the BYSDF's directional albedo times a
+height-based occlusion term (no rays). No continuous parameter moves a ray, so the rays are
+cast once per view (:func:`geometry_pass`, cached as a :class:`GBuffer`) and a render is
+:func:`shade`: the BYSDF over that buffer, one kernel forward and a few backward. The radii
+move the geometry: their gradient is a central finite difference (:func:`radius_gradient`).
+Everything is deterministic for a given seed; with ``spp = 1`` the samples sit at pixel
+centres and the seed plays no part.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 
 from . import bysdf as _bysdf
 from .geometry import PITCH
-from .scene import FabricScene
+from ..params import FIT_RANGES
+from .scene import GEOMETRY_KEYS, FabricScene
 
 mi = _bysdf.mi
 dr = _bysdf.dr
@@ -66,9 +73,89 @@ def _camera_rays(fs: FabricScene, spp: int, seed: int):
     return mi.Ray3f(origin, direction), (height, width)
 
 
-def _body_colours(fs: FabricScene, si, is_warp):
+@dataclass
+class GBuffer:
+    """Everything a render needs that does not depend on a continuous parameter (§6.4 scenes).
+
+    Built once per view, seed and geometry by :func:`geometry_pass` (ray casts, one kernel);
+    each render then only shades it (:func:`shade`), so a fitting step traces no rays and its
+    gradient graph holds only the BYSDF. Arrays have one entry per camera sample
+    (``H * W * spp``, pixel-major).
+
+    Attributes
+    ----------
+    shape : (H, W) pixels; spp : samples per pixel
+    hit : Bool, the sample sees a yarn; is_warp : Bool, that yarn is a warp
+    uv : Point2f, tube texture coordinates (plies and fibres)
+    wv : Vector3f, direction to the viewer in the local shading frame
+    wl : per light, Vector3f direction to the light in the local frame
+    lit : per light, Bool: the light reaches the point (directly, or through the yarn's exit
+        point when it lights the far side)
+    ao : Float, the ambient occlusion factor (1 on yarn tops, AO_FLOOR deepest)
+    fabric_uv : Point2f, the hit's position in repeats (body-colour textures), or None
+    """
+
+    shape: tuple[int, int]
+    spp: int
+    hit: object
+    is_warp: object
+    uv: object
+    wv: object
+    wl: list
+    lit: list
+    ao: object
+    fabric_uv: object = None
+
+    @property
+    def size(self) -> int:
+        return self.shape[0] * self.shape[1] * self.spp
+
+
+def geometry_pass(fs: FabricScene, *, spp: int, seed: int) -> GBuffer:
+    """Cast the camera, shadow and exit-point rays of the module's integrator, and evaluate."""
+    scene = fs.scene
+    with dr.suspend_grad():
+        ray, shape = _camera_rays(fs, spp, seed)
+        si = scene.ray_intersect(ray)
+        hit = si.is_valid()
+        view_side = dr.dot(si.n, -ray.d) > 0.0
+        wl, lit = [], []
+        for light in fs.rig.lights:
+            d = mi.Vector3f(*light.direction)
+            same_side = (dr.dot(si.n, d) > 0.0) == view_side
+            front_blocked = scene.ray_test(si.spawn_ray(d), hit & same_side)
+            if light.direction[2] < 0.0:
+                # a back light reaches the viewer only through the yarn: exit-point rays.
+                # Front lights skip them (what they send through a tube's flank is a few %
+                # of a dim grazing lobe), so a front-only rig does no transmission work.
+                exit_si = scene.ray_intersect(si.spawn_ray(d), hit & ~same_side)
+                back_blocked = scene.ray_test(exit_si.spawn_ray(d), hit & ~same_side & exit_si.is_valid())
+                visible = dr.select(same_side, ~front_blocked, ~back_blocked)
+            else:
+                visible = same_side & ~front_blocked
+            wl.append(si.to_local(d))
+            lit.append(hit & visible)
+        z_lo, z_hi = fs.z_range
+        ao = AO_FLOOR + (1.0 - AO_FLOOR) * dr.clip((si.p.z - z_lo) / (z_hi - z_lo), 0.0, 1.0)
+        fabric_uv = None
+        if fs.textures:
+            n_e, n_a = fs.fabric.shape
+            fabric_uv = mi.Point2f(si.p.x / (n_a * PITCH), si.p.y / (n_e * PITCH))
+        g = GBuffer(shape=shape, spp=spp, hit=hit, is_warp=si.shape == fs.warp_shape, uv=mi.Point2f(si.uv),
+                    wv=mi.Vector3f(si.wi), wl=wl, lit=lit, ao=ao, fabric_uv=fabric_uv)
+        dr.eval(g.hit, g.is_warp, g.uv, g.wv, g.wl, g.lit, g.ao, g.fabric_uv)
+    return g
+
+
+def _broadcast(value, size: int):
+    """``value`` (width 1) as an array of ``size`` entries, by a gather: its gradient then comes
+    back through one scatter-add instead of a reduction per use (one backward kernel, not
+    hundreds)."""
+    return dr.gather(type(value), value, dr.zeros(mi.UInt32, size))
+
+
+def _body_colours(fs: FabricScene, g: GBuffer):
     """R^B and S^B at each hit: the warp's or the weft's colour, or their textures."""
-    n_e, n_a = fs.fabric.shape
     out = []
     for key in ("body_reflection", "body_subsurface"):
         colours = []
@@ -76,51 +163,47 @@ def _body_colours(fs: FabricScene, si, is_warp):
             dotted = f"{yarn}.{key}"
             tex = fs.textures.get(dotted)
             if tex is None:
-                colours.append(fs.values[dotted])
+                colours.append(_broadcast(fs.values[dotted], g.size))
             else:
-                uv = mi.Point2f(si.p.x / (n_a * PITCH), si.p.y / (n_e * PITCH))
-                colours.append(mi.Color3f(tex.eval(uv)))
-        out.append(dr.select(is_warp, colours[0], colours[1]))
+                colours.append(mi.Color3f(tex.eval(g.fabric_uv)))
+        out.append(dr.select(g.is_warp, colours[0], colours[1]))
     return out
 
 
-def radiance(fs: FabricScene, ray):
-    """Radiance along each camera ray (Color3f), the integrator described in the module."""
-    scene = fs.scene
-    si = scene.ray_intersect(ray)
-    hit = si.is_valid()
-    is_warp = si.shape == fs.warp_shape
-    body_r, body_s = _body_colours(fs, si, is_warp)
-    p = fs.shading()
-    wv = si.wi
-    view_side = dr.dot(si.n, -ray.d) > 0.0
-
+def shade(fs: FabricScene, g: GBuffer):
+    """Radiance of each camera sample (Color3f): the lights and the ambient term through the
+    BYSDF, with the current (possibly gradient-tracked) values of ``fs``."""
+    p = _bysdf.Shading(**{k: _broadcast(v, g.size) for k, v in vars(fs.shading()).items()})
+    body_r, body_s = _body_colours(fs, g)
     result = mi.Color3f(0.0)
-    for light in fs.rig.lights:
-        d = mi.Vector3f(*light.direction)
-        f = _bysdf.eval_bysdf(p, body_r, body_s, si.uv, wv, si.to_local(d))
-        same_side = (dr.dot(si.n, d) > 0.0) == view_side
-        front_blocked = scene.ray_test(si.spawn_ray(d), hit & same_side)
-        exit_si = scene.ray_intersect(si.spawn_ray(d), hit & ~same_side)
-        back_blocked = scene.ray_test(exit_si.spawn_ray(d), hit & ~same_side & exit_si.is_valid())
-        visible = dr.select(same_side, ~front_blocked, ~back_blocked)
-        result += dr.select(hit & visible, light.irradiance * f, 0.0)
+    for light, wl, lit in zip(fs.rig.lights, g.wl, g.lit):
+        f = _bysdf.eval_bysdf(p, body_r, body_s, g.uv, g.wv, wl)
+        result += dr.select(lit, light.irradiance * f, 0.0)
+    result += fs.rig.ambient * g.ao * _bysdf.albedo_bysdf(p, body_r, body_s, g.uv, g.wv.z)
+    return dr.select(g.hit, result, mi.Color3f(fs.rig.backdrop))
 
-    z_lo, z_hi = fs.z_range
-    ao = AO_FLOOR + (1.0 - AO_FLOOR) * dr.clip((si.p.z - z_lo) / (z_hi - z_lo), 0.0, 1.0)
-    ambient = fs.rig.ambient * ao * _bysdf.albedo_bysdf(p, body_r, body_s, si.uv, wv.z)
-    result += dr.select(hit, ambient, 0.0)
-    return dr.select(hit, result, mi.Color3f(fs.rig.backdrop))
+
+def gbuffer(fs: FabricScene, *, spp: int, seed: int) -> GBuffer:
+    """The scene's G-buffer for ``spp`` and ``seed``, cached on the scene until its geometry
+    changes (:meth:`FabricScene.set` of a radius clears the cache)."""
+    key = (spp, seed)
+    if key not in fs.cache:
+        fs.cache.clear()
+        fs.cache[key] = geometry_pass(fs, spp=spp, seed=seed)
+    return fs.cache[key]
 
 
 def render(fs: FabricScene, *, seed: int = 0, spp: int | None = None):
     """Render to a Dr.Jit tensor of shape (H, W, 3), linear RGB, differentiable with respect
     to every value in ``fs.values`` that has gradients enabled."""
     spp = int(spp or fs.view.spp)
-    ray, (height, width) = _camera_rays(fs, spp, seed)
-    colour = radiance(fs, ray)
-    pixels = mi.Color3f(*(dr.block_sum(channel, spp) / spp for channel in colour))
-    return mi.TensorXf(dr.ravel(pixels), shape=(height, width, 3))
+    g = gbuffer(fs, spp=spp, seed=seed)
+    colour = shade(fs, g)
+    height, width = g.shape
+    if spp > 1:
+        dr.eval(colour)  # one kernel for the three channels
+        colour = mi.Color3f(*(dr.block_sum(channel, spp) / spp for channel in colour))
+    return mi.TensorXf(dr.ravel(colour), shape=(height, width, 3))
 
 
 def render_numpy(fs: FabricScene, *, seed: int = 0, spp: int | None = None) -> np.ndarray:
@@ -129,25 +212,56 @@ def render_numpy(fs: FabricScene, *, seed: int = 0, spp: int | None = None) -> n
         return np.array(render(fs, seed=seed, spp=spp), dtype=np.float32)
 
 
+def _mse(image, target):
+    return dr.mean(dr.square(image - target), axis=None)
+
+
+def radius_gradient(fs: FabricScene, target: np.ndarray, key: str, *, seed: int = 0, spp: int | None = None,
+                    step: float = 0.02) -> float:
+    """d MSE / d radius (``warp.radius`` or ``weft.radius``) by a central finite difference of
+    ``step`` world units; the geometry is rebuilt at both ends and restored. Ray-cast geometry
+    has no smooth derivative at the silhouettes that a radius mostly moves, so a difference
+    over a small step is both simpler and more faithful here than edge-sampling AD."""
+    target_t = mi.TensorXf(np.asarray(target, dtype=np.float32))
+    r0 = float(fs.fabric.get(key))
+    lo, hi = FIT_RANGES[key]
+    a, b = max(lo, r0 - step), min(hi, r0 + step)
+    losses = []
+    with dr.suspend_grad():
+        for r in (a, b):
+            fs.set(key, r)
+            losses.append(float(np.asarray(_mse(render(fs, seed=seed, spp=spp), target_t)).ravel()[0]))
+    fs.set(key, r0)
+    return (losses[1] - losses[0]) / (b - a)
+
+
 def mse_and_gradients(fs: FabricScene, target: np.ndarray, keys, *, seed: int = 0,
                       spp: int | None = None) -> tuple[float, dict[str, np.ndarray], np.ndarray]:
-    """MSE between a render and ``target`` (H, W, 3), and its gradient for each dotted key.
+    """MSE between a render and ``target`` (H, W, 3), and its gradient for each dotted key of
+    :data:`weavecap.params.FIT_RANGES` in ``keys`` (reverse-mode AD; radii by
+    :func:`radius_gradient`).
 
     Returns
     -------
     loss : float
-    grads : dict key → array (shape (1,) for scalars, (3,) for colours)
+    grads : dict key → float64 array (shape (1,) for scalars, (3,) for colours)
     image : (H, W, 3) float32, the render
     """
     keys = list(keys)
-    for key in keys:
+    ad_keys = [k for k in keys if k not in GEOMETRY_KEYS]
+    for key in ad_keys:
         dr.enable_grad(fs.values[key])
     try:
         image = render(fs, seed=seed, spp=spp)
-        loss = dr.mean(dr.square(image - mi.TensorXf(np.asarray(target, dtype=np.float32))), axis=None)
+        loss = _mse(image, mi.TensorXf(np.asarray(target, dtype=np.float32)))
         dr.backward(loss)
-        grads = {key: np.array(dr.ravel(dr.grad(fs.values[key])), dtype=np.float64) for key in keys}
-        return float(np.asarray(loss).ravel()[0]), grads, np.array(dr.detach(image), dtype=np.float32)
+        grads = {key: np.array(dr.ravel(dr.grad(fs.values[key])), dtype=np.float64) for key in ad_keys}
+        loss_value = float(np.asarray(dr.detach(loss)).ravel()[0])
+        image_np = np.array(dr.detach(image), dtype=np.float32)
     finally:
-        for key in keys:
+        for key in ad_keys:
             dr.disable_grad(fs.values[key])
+    for key in keys:
+        if key in GEOMETRY_KEYS:
+            grads[key] = np.array([radius_gradient(fs, target, key, seed=seed, spp=spp)])
+    return loss_value, {key: grads[key] for key in keys}, image_np

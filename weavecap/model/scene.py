@@ -194,6 +194,7 @@ class FabricScene:
     textures: dict = field(default_factory=dict)
     warp_shape: object = None
     z_range: tuple[float, float] = (0.0, 1.0)
+    cache: dict = field(default_factory=dict)  # G-buffers of weavecap.model.render, per (spp, seed)
 
     def set(self, key: str, value) -> None:
         """Set one parameter by dotted key; a radius rebuilds the geometry."""
@@ -249,6 +250,7 @@ def _rebuild(fs: FabricScene) -> None:
     fs.warp_shape = mi.ShapePtr(warp_mesh)
     top = crossover_height(fabric.warp.radius, fabric.weft.radius) / 2 + max(fabric.warp.radius, fabric.weft.radius)
     fs.z_range = (-top, top)
+    fs.cache.clear()
 
 
 def build_scene(fabric: Fabric, view: View | None = None, *, light: str | LightRig = "both") -> FabricScene:

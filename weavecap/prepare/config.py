@@ -34,6 +34,8 @@ class PrepareConfig:
     radon_coarse_pitch_px: float = 8.0
     radon_coarse_diameter_px: int = 160
     radon_coarse_step_deg: float = 1.0
+    #: largest departure from 90° between the two yarn families searched for (degrees)
+    radon_pair_skew_deg: float = 4.0
     #: Radon: disc diameter, half-width and step of the fine search around each yarn direction
     radon_fine_diameter_px: int = 320
     radon_fine_halfwidth_deg: float = 1.5
@@ -53,32 +55,41 @@ class PrepareConfig:
     # --- regularization (§4.2) ---------------------------------------------------------------
     #: Gaussian σ as a fraction of the yarn pitch (the paper: 1/16 of the yarn size)
     gaussian_sigma_pitch: float = 1.0 / 16.0
-    #: kernel PCA: components kept, patches used to fit (sampled), smallest patch side (px)
+    #: largest side of the box of the rectified image that is regularized (px)
+    regularize_max_px: int = 768
+    #: kernel PCA: components kept, repeats used to fit (sampled), largest side of one repeat
+    #: once resampled (px), fewest whole repeats in the box for kernel PCA to be used
     kpca_components: int = 8
     kpca_max_patches: int = 300
-    kpca_min_patch_px: int = 24
-    kpca_max_patch_px: int = 96
+    kpca_max_patch_px: int = 64
+    kpca_min_repeats: int = 6
     kpca_seed: int = 0
 
     # --- period (§4.3) -----------------------------------------------------------------------
-    #: a dip of the distance matching function counts when it falls below this fraction of its
-    #: plateau; the smallest such dip within ``period_tolerance`` of the deepest one wins
-    period_min_depth: float = 0.35
-    period_tolerance: float = 0.15
+    #: largest side of the centre crop whose distance matching functions are superposed
+    period_max_px: int = 1024
+    #: most yarns in a repeat along one axis
+    max_repeat_yarns: int = 48
+    #: the repeat is the fewest yarns whose DMF dip d ≤ max(rel·d*, d* + abs), d* the deepest
+    period_rel_tol: float = 1.6
+    period_abs_tol: float = 0.04
+    #: a dip counts as a repeat when 1 - d* reaches this (else: a single repeat in the photo)
+    period_min_depth: float = 0.3
 
     # --- grid (§4.4) -------------------------------------------------------------------------
-    #: the yarn pitch is the finest period of the integral projection that still explains this
-    #: fraction of the structure its repeat explains
-    grid_explained: float = 0.55
+    #: the pitch is doubled (or tripled) while that explains this much more of the projection
+    grid_octave_gain: float = 0.15
 
     # --- rejection ---------------------------------------------------------------------------
     #: smallest resolvable yarn pitch in input px
     min_pitch_px: float = 3.0
     #: smallest relative contrast of the texture (std / mean of the flattened grey)
     min_contrast: float = 0.02
-    #: smallest periodicity (1 - DMF at the repeat / DMF plateau) on each axis
-    min_periodicity: float = 0.3
-    #: smallest fraction of the image's structure a yarn grid explains
-    min_grid_strength: float = 0.25
+    #: smallest periodicity of the integral projection at the pitch (see grid.folded_strength)
+    min_grid_strength: float = 0.5
+    #: smallest share of the image's structure (std) its projections keep along each axis
+    min_grid_contrast: float = 0.08
+    #: largest departure from 90° of the two yarn families (degrees)
+    max_skew_deg: float = 8.0
     #: fewest yarns along each axis of the photo
     min_yarns_in_photo: int = 4

@@ -379,13 +379,20 @@ def dominant_angles(img: np.ndarray, *, pitch_px: float, config: PrepareConfig =
     edge = _disc(_laplacian_edges(small), config.radon_coarse_diameter_px)
     thetas = np.arange(0.0, 180.0, config.radon_coarse_step_deg)
     v = _radon_variance(edge, thetas)
-    half = len(thetas) // 2
-    pair = v[:half] + v[half:]
+    # a weave is two families of lines: score each direction together with the strongest
+    # direction within ±max_skew of its perpendicular, by the geometric mean, so that one strong
+    # family alone (a twill diagonal, a rib, a highlight streak) does not win
+    n_t = len(thetas)
+    half = n_t // 2
+    reach = int(round(config.radon_pair_skew_deg / config.radon_coarse_step_deg))
+    partner = np.max([np.roll(v, -(half + k)) for k in range(-reach, reach + 1)], axis=0)
+    pair = np.sqrt(v * partner)
     best = int(np.argmax(pair))
+    k_best = max(range(-reach, reach + 1), key=lambda k: v[(best + half + k) % n_t])
     contrast = float(pair[best] / max(np.median(pair), 1e-12))
     edge_f = _disc(_laplacian_edges(img), config.radon_fine_diameter_px)
     refined = []
-    for t0 in (thetas[best], thetas[best] + 90.0):
+    for t0 in (thetas[best], thetas[best] + 90.0 + k_best * config.radon_coarse_step_deg):
         ts = t0 + np.arange(-config.radon_fine_halfwidth_deg, config.radon_fine_halfwidth_deg + 1e-9,
                             config.radon_fine_step_deg)
         refined.append(_parabola_peak(ts, _radon_variance(edge_f, ts)))

@@ -1,0 +1,278 @@
+"""Yarn grid (Wu et al. 2025 §4.4): integral projections → yarn boundaries, pitch, yarn counts.
+
+The integral projection of the rectified grey image along the warps (its column means, a
+function of x) averages the weave pattern away and keeps what every row shares: the dark
+gaps between neighbouring warps. Its valleys are the warp boundaries; likewise the row means
+give the weft boundaries. The pitch along an axis is the period of that projection; the number
+of yarns in the minimum repeat is the repeat (§4.3) divided by the pitch, a whole number.
+
+Conventions: rows of the pattern are wefts, columns are warps; after rectification warps run
+vertically, so the *warp* pitch is measured along x and the *weft* pitch along y.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+
+@dataclass(frozen=True)
+class AxisGrid:
+    """The yarns along one axis of the rectified image.
+
+    Attributes
+    ----------
+    pitch_px : distance between neighbouring yarn centres (rectified px).
+    strength : fraction of the projection's variance explained by folding it at the pitch
+        (1: a perfectly periodic projection; noise: ≈ bins / length).
+    contrast : standard deviation of the projection relative to that of the whole image
+        (how much of the image's structure is a straight-yarn grid along this axis).
+    bounds_px : (K,) positions of the yarn boundaries (valleys of the projection), ascending.
+    """
+
+    pitch_px: float
+    strength: float
+    contrast: float
+    bounds_px: np.ndarray
+
+
+@dataclass(frozen=True)
+class Grid:
+    """The yarn grid and the minimum repeat of a rectified weave photo (§4.3–4.4).
+
+    Attributes
+    ----------
+    x, y : :class:`AxisGrid` of the warps (along x) and of the wefts (along y).
+    repeat_px : (height, width) of the minimum repeat in rectified px.
+    yarns : (wefts, warps) in the minimum repeat.
+    repeat_found : (along y, along x): whether the repeat showed as a dip of the DMF; False
+        means the photo holds a single repeat along that axis (all its whole yarns are used).
+    origin_px : (y, x) of the top-left corner of one repeat (a pair of yarn boundaries).
+    """
+
+    x: AxisGrid
+    y: AxisGrid
+    repeat_px: tuple[float, float]
+    yarns: tuple[int, int]
+    repeat_found: tuple[bool, bool]
+    origin_px: tuple[float, float]
+
+    @property
+    def pitch_px(self) -> tuple[float, float]:
+        """(warp pitch along x, weft pitch along y), as in report.json."""
+        return self.x.pitch_px, self.y.pitch_px
+
+    def cells(self) -> tuple[np.ndarray, np.ndarray]:
+        """Boundaries (rectified px) of the cells of one repeat: (yarns+1,) along y and along x."""
+        ny, nx = self.yarns
+        oy, ox = self.origin_px
+        return oy + self.y.pitch_px * np.arange(ny + 1), ox + self.x.pitch_px * np.arange(nx + 1)
+
+    def to_json(self) -> dict:
+        """The ``grid`` part of report.json (plus extra keys the schema allows)."""
+        return {
+            "repeat_px": [round(float(v), 3) for v in self.repeat_px],
+            "pitch_px": [round(float(v), 4) for v in self.pitch_px],
+            "yarns": [int(v) for v in self.yarns],
+            "repeat_found": [bool(v) for v in self.repeat_found],
+            "origin_px": [round(float(v), 2) for v in self.origin_px],
+            "strength": [round(self.y.strength, 4), round(self.x.strength, 4)],
+            "weft_bounds_px": [round(float(v), 2) for v in self.y.bounds_px],
+            "warp_bounds_px": [round(float(v), 2) for v in self.x.bounds_px],
+        }
+
+
+# ----------------------------------------------------------------------------- projections
+
+def projection(grey: np.ndarray, *, axis: int) -> np.ndarray:
+    """Integral projection: the mean of ``grey`` over ``axis`` (0: column means, f(x))."""
+    return np.asarray(grey, np.float64).mean(axis=axis)
+
+
+def folded_strength(profile: np.ndarray, period: float) -> float:
+    """Fraction of the variance of ``profile`` explained by its mean over one ``period``.
+
+    The profile is folded at the (possibly fractional) period into ``max(4, round(period))``
+    phase bins; the result is the between-bin share of the variance, corrected for the share
+    that pure noise would reach with that many bins.
+    """
+    p = np.asarray(profile, np.float64)
+    p = p - p.mean()
+    n = p.size
+    var = float((p ** 2).mean())
+    if var <= 0 or period <= 1 or n < 2 * period:
+        return 0.0
+    bins = int(np.clip(round(period), 4, 64))
+    idx = np.floor((np.arange(n) % period) / period * bins).astype(int) % bins
+    cnt = np.bincount(idx, minlength=bins)
+    mean = np.bincount(idx, p, minlength=bins) / np.maximum(cnt, 1)
+    explained = float((cnt * mean ** 2).sum() / n) / var
+    chance = (bins - 1) / max(n - 1, 1)
+    return float(max(0.0, (explained - chance) / (1 - chance)))
+
+
+def _spectrum_peak(profile: np.ndarray, *, min_period: float, max_period: float) -> float | None:
+    """Period (px) of the strongest spectral peak of a profile, weighted by frequency."""
+    p = np.asarray(profile, np.float64)
+    n = p.size
+    p = (p - p.mean()) * np.hanning(n)
+    pad = 1 << int(np.ceil(np.log2(n * 16)))
+    power = np.abs(np.fft.rfft(p, pad)) ** 2
+    f = np.fft.rfftfreq(pad)
+    band = (f >= 1.0 / max_period) & (f <= 1.0 / min_period)
+    if not np.any(band):
+        return None
+    score = np.where(band, power * f, 0.0)
+    i = int(np.argmax(score))
+    if score[i] <= 0:
+        return None
+    if 0 < i < len(score) - 1:
+        a, b, c = np.log(score[i - 1:i + 2] + 1e-300)
+        den = a - 2 * b + c
+        if den < 0:
+            return float(1.0 / (f[i] + 0.5 * (a - c) / den * (f[1] - f[0])))
+    return float(1.0 / f[i])
+
+
+def axis_pitch(profile: np.ndarray, *, min_period: float, max_period: float,
+               octave_gain: float = 0.15) -> tuple[float | None, float]:
+    """The yarn pitch of an integral projection, and how periodic the projection is at it.
+
+    The frequency-weighted spectral peak gives a first period; a yarn whose cross-section
+    shows two dips (a bright centre line, a split ply) puts its strongest peak at twice its
+    frequency, so the period is doubled (or tripled) while that explains at least
+    ``octave_gain`` more of the projection.
+
+    Returns
+    -------
+    (pitch_px or None, strength) — see :func:`folded_strength`.
+    """
+    per = _spectrum_peak(profile, min_period=min_period, max_period=max_period)
+    if per is None:
+        return None, 0.0
+    s = folded_strength(profile, per)
+    for _ in range(2):
+        options = [(folded_strength(profile, k * per), k) for k in (2, 3) if k * per <= max_period]
+        if not options:
+            break
+        s2, k = max(options)
+        if s2 - s < octave_gain:
+            break
+        per, s = per * k, s2
+    return per, s
+
+
+def refine_pitch(profile: np.ndarray, pitch: float, *, span: float = 0.04, steps: int = 81) -> float:
+    """The period near ``pitch`` that best explains ``profile`` when folded (sub-pixel)."""
+    cands = pitch * (1 + np.linspace(-span, span, steps))
+    s = np.array([folded_strength(profile, c) for c in cands])
+    i = int(np.argmax(s))
+    if 0 < i < steps - 1:
+        a, b, c = s[i - 1:i + 2]
+        den = a - 2 * b + c
+        if den < 0:
+            return float(cands[i] + 0.5 * (a - c) / den * (cands[1] - cands[0]))
+    return float(cands[i])
+
+
+def boundaries(profile: np.ndarray, pitch: float, *, offset: float = 0.0,
+               length: float | None = None) -> np.ndarray:
+    """Yarn boundaries: the valleys of ``profile`` (a projection with the given pitch).
+
+    The mean profile over one pitch gives the phase of the gap between yarns; each boundary
+    is then moved to the nearest local minimum of the (lightly smoothed) profile within a
+    quarter pitch, so that uneven spacing shows (the paper's "cells of varying widths").
+
+    Parameters
+    ----------
+    profile : (L,) projection.
+    pitch : its period (px).
+    offset : added to every position (the profile's first sample in the output frame).
+    length : extend the regular grid over ``[offset, offset + length)`` instead of the profile.
+
+    Returns
+    -------
+    (K,) ascending boundary positions in the output frame.
+    """
+    p = np.asarray(profile, np.float64)
+    n = p.size
+    bins = int(np.clip(round(pitch * 2), 8, 128))
+    idx = np.floor((np.arange(n) % pitch) / pitch * bins).astype(int) % bins
+    mean = np.bincount(idx, p, minlength=bins) / np.maximum(np.bincount(idx, minlength=bins), 1)
+    # circular smoothing of the mean yarn profile, then its minimum = the gap
+    k = np.array([0.25, 0.5, 0.25])
+    mean_s = np.convolve(np.concatenate([mean[-1:], mean, mean[:1]]), k, mode="valid")
+    phase = (int(np.argmin(mean_s)) + 0.5) / bins * pitch
+    ps = cv2.GaussianBlur(p.astype(np.float32)[None], (0, 0), max(0.5, pitch / 12))[0].astype(np.float64)
+    total = float(n if length is None else length)
+    pos = np.arange(phase - pitch * np.ceil(phase / pitch), total, pitch)
+    pos = pos[(pos >= 0) & (pos < total)]
+    out = []
+    half = pitch / 4
+    for x in pos:
+        lo, hi = int(np.ceil(x - half)), int(np.floor(x + half))
+        lo, hi = max(lo, 1), min(hi, n - 2)
+        if lo <= hi and x < n:
+            seg = np.arange(lo, hi + 1)
+            j = int(seg[np.argmin(ps[seg])])
+            if ps[j] <= ps[j - 1] and ps[j] <= ps[j + 1]:
+                a, b, c = ps[j - 1:j + 2]
+                den = a - 2 * b + c
+                x = j + (0.5 * (a - c) / den if den > 0 else 0.0)
+        out.append(x)
+    return np.asarray(out, float) + offset
+
+
+def repeat_along(dmf: np.ndarray, pitch: float, *, max_yarns: int = 64, rel_tol: float = 1.6,
+                 abs_tol: float = 0.04, min_depth: float = 0.3) -> tuple[int | None, float, float]:
+    """The minimum repeat along one axis as a whole number of yarns (§4.3).
+
+    The superposed DMF dips at every whole number of repeats; only shifts that are whole
+    numbers of yarns are candidates. The repeat is the fewest yarns (≥ 2: a weave interlaces)
+    whose dip is about as deep as the deepest one (``d ≤ max(rel_tol·d*, d* + abs_tol)``).
+
+    Parameters
+    ----------
+    dmf : (L,) normalised superposed DMF (≈ 1 for unrelated shifts, 0 for a perfect repeat).
+    pitch : yarn pitch along that axis (px).
+
+    Returns
+    -------
+    (yarns or None, repeat_px, depth): None when no dip reaches ``min_depth`` (the photo holds
+    at most one repeat along this axis); ``repeat_px`` is refined over all its multiples.
+    """
+    d = np.asarray(dmf, np.float64)
+    L = len(d)
+    nmax = min(max_yarns, int((L - 2) / pitch))
+    if nmax < 2:
+        return None, float("nan"), 0.0
+    w = max(1.0, 0.2 * pitch)
+
+    def dip(center: float) -> tuple[float, float]:
+        lo, hi = max(1, int(np.floor(center - w))), min(L - 2, int(np.ceil(center + w)))
+        seg = np.arange(lo, hi + 1)
+        j = int(seg[np.argmin(d[seg])])
+        a, b, c = d[j - 1:j + 2]
+        den = a - 2 * b + c
+        x = j + (float(np.clip(0.5 * (a - c) / den, -0.5, 0.5)) if den > 0 else 0.0)
+        return float(d[j]), x
+
+    dips = [dip(n * pitch) for n in range(1, nmax + 1)]
+    vals = np.array([v for v, _ in dips])
+    best = float(vals[1:].min())
+    if 1.0 - best < min_depth:
+        return None, float("nan"), float(1.0 - best)
+    limit = max(rel_tol * best, best + abs_tol)
+    n = next(k for k in range(2, nmax + 1) if vals[k - 1] <= limit)
+    # refine: the m-th dip of the repeat lies at m·R
+    ms, xs = [], []
+    for m in range(1, nmax // n + 1):
+        v, x = dips[m * n - 1]
+        if v <= limit:
+            ms.append(m)
+            xs.append(x)
+    ms_, xs_ = np.array(ms, float), np.array(xs)
+    rep = float((ms_ * xs_).sum() / (ms_ ** 2).sum())
+    return n, rep, float(1.0 - vals[n - 1])
