@@ -6,7 +6,7 @@ VENV   ?= .venv
 BIN     = $(VENV)/bin
 STAMP   = $(VENV)/.weavecap-installed
 
-.PHONY: install demo test man
+.PHONY: install demo test man fixtures bench
 
 install: $(STAMP)
 
@@ -27,3 +27,15 @@ test: install
 
 man: install
 	$(BIN)/python -m weavecap.cli.manpages man
+
+# The fixtures' synthetic photos (committed; the command that made them, for every fixture)
+fixtures: install
+	mkdir -p fixtures/photos
+	for f in fixtures/params/*.json; do \
+	  $(BIN)/weavecap synth $$f -o fixtures/photos/$$(basename $$f .json).png --tiles 4x4 --size 512 --seed 0 --force; \
+	done
+
+# Performance figures of the README (cold and warm renders, forward and backward, memory)
+bench: install
+	$(BIN)/python scripts/bench_render.py
+	$(BIN)/python scripts/measure_geometry.py

@@ -159,7 +159,7 @@ class TubeMesh:
     ----------
     positions, normals : (V, 3) float32
     texcoords : (V, 2) float32
-        u = arc length / (2π r) along the yarn (one unit = one circumference), v = angle / 2π.
+        u = position along the yarn's axis / (2π r) (one unit ≈ one circumference), v = angle / 2π.
     faces : (F, 3) uint32, counter-clockwise seen from outside
     """
 
@@ -192,7 +192,9 @@ def sweep_tubes(curves: list[np.ndarray], radius: float, *, side: np.ndarray,
         up = np.cross(side, tangent)  # in the yarn's vertical plane, pointing up (+z-ish)
         if up[:, 2].mean() < 0:
             up = -up
-        arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pos, axis=0), axis=1))])
+        # u from the absolute position along the yarn's axis, not the arc from the window's
+        # start: the plies then sit at the same place whatever window of the fabric is built
+        arc = pos @ np.abs(np.cross(side, (0.0, 0.0, 1.0)))
         cos_a, sin_a = np.cos(angles), np.sin(angles)
         n = (up[:, None, :] * cos_a[None, :, None] + side[None, None, :] * sin_a[None, :, None])
         p = pos[:, None, :] + radius * n

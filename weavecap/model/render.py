@@ -254,7 +254,8 @@ def mse_and_gradients(fs: FabricScene, target: np.ndarray, keys, *, seed: int = 
     try:
         image = render(fs, seed=seed, spp=spp)
         loss = _mse(image, mi.TensorXf(np.asarray(target, dtype=np.float32)))
-        dr.backward(loss)
+        if ad_keys:
+            dr.backward(loss)
         grads = {key: np.array(dr.ravel(dr.grad(fs.values[key])), dtype=np.float64) for key in ad_keys}
         loss_value = float(np.asarray(dr.detach(loss)).ravel()[0])
         image_np = np.array(dr.detach(image), dtype=np.float32)

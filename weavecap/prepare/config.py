@@ -43,6 +43,8 @@ class PrepareConfig:
     #: perspective: tile side in working pitches, number of spectral peaks tracked per tile
     tile_pitches: float = 12.0
     tile_peaks: int = 3
+    #: fewest working pitches across a tile (small photos get smaller tiles down to this)
+    tile_min_pitches: float = 5.0
     #: perspective: RANSAC iterations, inlier threshold (relative frequency error), minimum tiles
     ransac_iterations: int = 60
     ransac_threshold: float = 0.02

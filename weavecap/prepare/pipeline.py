@@ -285,9 +285,10 @@ def prepare_photo(rgb: np.ndarray, config: PrepareConfig = PrepareConfig(), *,
     checks.update(repeat_depth=depths)
     (ny, rep_h), (nx, rep_w) = reps
     # the pitch is best known from the repeat, measured over all its multiples
-    if found[0]:
+    # (unless the two disagree: then the projection's pitch is kept)
+    if found[0] and abs(rep_h / ny / py - 1) < 0.03:
         py = rep_h / ny
-    if found[1]:
+    if found[1] and abs(rep_w / nx / px - 1) < 0.03:
         px = rep_w / nx
     timings["grid"] = time.perf_counter() - t
 

@@ -484,7 +484,9 @@ def rectify(rgb: np.ndarray, *, config: PrepareConfig = PrepareConfig(),
     to_work = _scaling(fw) @ np.array([[1, 0, -x0 - (cw - 1) / 2], [0, 1, -y0 - (ch - 1) / 2], [0, 0, 1]])
     # fw maps crop px to work px only approximately at the border (rounding); fine at the centre
     tile = int(round(config.tile_pitches * config.work_pitch_px / 2) * 2)
-    tile = int(np.clip(tile, 48, 160))
+    # small photos: smaller tiles (down to ``tile_min_pitches``) so that a 3×3 set still fits
+    tile_small = int(min(wh, ww) / 2.2) // 2 * 2
+    tile = int(np.clip(min(tile, tile_small), round(config.tile_min_pitches * config.work_pitch_px), 160))
     h_rel, pinfo = estimate_perspective(work, tile=tile, peaks=config.tile_peaks,
                                         iterations=config.ransac_iterations,
                                         threshold=config.ransac_threshold, min_tiles=config.min_tiles)

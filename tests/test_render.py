@@ -1,0 +1,162 @@
+"""The forward model end to end (weavecap.model.scene + render): what a fit relies on.
+
+Known answers: a fabric whose warp and weft have different colours must show, in every cell,
+the colour of the yarn the pattern puts on top; gradients must equal finite differences; the
+same seed must give the same image.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from weavecap import params
+from weavecap.model.render import mse_and_gradients, render_numpy
+from weavecap.model.scene import View, build_scene
+from weavecap.params import FIT_RANGES
+
+FIXTURES = sorted((Path(__file__).resolve().parents[1] / "fixtures" / "params").glob("*.json"))
+RED, BLUE = (0.8, 0.1, 0.1), (0.1, 0.1, 0.8)
+
+
+def two_colour(fabric: params.Fabric) -> params.Fabric:
+    """The fabric with a red warp and a blue weft."""
+    return fabric.replace({"warp.body_reflection": RED, "warp.body_subsurface": RED,
+                           "weft.body_reflection": BLUE, "weft.body_subsurface": BLUE})
+
+
+def cell_means(image: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """(n_e, n_a, 3) mean colour of the central 40% of each cell of a one-repeat image."""
+    n_e, n_a = shape
+    h, w = image.shape[:2]
+    out = np.zeros((n_e, n_a, 3))
+    for i in range(n_e):
+        for j in range(n_a):
+            y0, y1 = (i + 0.3) * h / n_e, (i + 0.7) * h / n_e
+            x0, x1 = (j + 0.3) * w / n_a, (j + 0.7) * w / n_a
+            out[i, j] = image[int(y0):int(np.ceil(y1)), int(x0):int(np.ceil(x1))].reshape(-1, 3).mean(axis=0)
+    return out
+
+
+@pytest.mark.parametrize("path", FIXTURES, ids=lambda p: p.stem)
+def test_every_cell_shows_the_yarn_on_top(path):
+    """The weave is visible: each cell is red where the warp is over, blue where the weft is."""
+    fabric = two_colour(params.load(path))
+    n_e, n_a = fabric.shape
+    image = render_numpy(build_scene(fabric, View(tiles=(1, 1), size=16 * max(n_e, n_a), spp=1), light="front"))
+    means = cell_means(image, fabric.shape)
+    weft_on_top = means[..., 2] > means[..., 0]
+    assert np.array_equal(weft_on_top, fabric.pattern.astype(bool)), (weft_on_top.astype(int), fabric.pattern)
+
+
+def test_repeats_tile_exactly():
+    """Two repeats side by side are the same picture twice: the geometry is periodic. (The
+    procedural plies and fibres are not tied to the weave's repeat, so they are switched off.)"""
+    fabric = params.load(FIXTURES[0]).replace({"shadowing.ply": 0.0, "shadowing.fiber": 0.0})
+    image = render_numpy(build_scene(fabric, View(tiles=(2, 2), size=64, spp=1)))
+    h, w = image.shape[:2]
+    assert np.allclose(image[: h // 2], image[h // 2:], atol=2e-3)
+    assert np.allclose(image[:, : w // 2], image[:, w // 2:], atol=2e-3)
+
+
+def test_same_seed_same_image_other_seed_differs():
+    fabric = params.load(FIXTURES[0])
+    scene = build_scene(fabric, View(tiles=(1, 1), size=48, spp=4))
+    a = render_numpy(scene, seed=3)
+    b = render_numpy(build_scene(fabric, View(tiles=(1, 1), size=48, spp=4)), seed=3)
+    c = render_numpy(scene, seed=4)
+    assert np.array_equal(a, b)
+    assert not np.array_equal(a, c)
+    assert abs(a.mean() - c.mean()) < 0.01  # only the antialiasing jitter differs
+
+
+def test_quarter_turn_turns_the_picture():
+    """--rotate 90 turns the fabric counter-clockwise in the image."""
+    fabric = params.load([p for p in FIXTURES if p.stem == "twill_2_1"][0])
+    view = dict(tiles=(1, 1), size=48, spp=1)
+    straight = render_numpy(build_scene(fabric, View(**view)))
+    turned = render_numpy(build_scene(fabric, View(**view, rotate_deg=90.0)))
+    assert np.abs(turned - np.rot90(straight, 1)).max() < 1e-4
+    assert np.abs(turned - np.rot90(straight, -1)).mean() > 0.03
+
+
+def test_light_rigs_light_the_gaps_as_described():
+    """Thin yarns leave gaps: dark under a front-only rig, bright with a light behind."""
+    fabric = params.load(FIXTURES[0]).replace({"warp.radius": 2.0, "weft.radius": 2.0})
+    view = View(tiles=(1, 1), size=40, spp=1)
+    front = render_numpy(build_scene(fabric, view, light="front"))
+    back = render_numpy(build_scene(fabric, view, light="back"))
+    corner = (slice(0, 2), slice(0, 2))  # between yarns: each yarn is centred in its cell
+    assert front[corner].max() < 0.1
+    assert back[corner].min() > 0.5
+
+
+def test_perspective_camera_sees_the_same_fabric_in_the_middle():
+    fabric = params.load(FIXTURES[0])
+    ortho = render_numpy(build_scene(fabric, View(tiles=(2, 2), size=64, spp=1)))
+    persp = render_numpy(build_scene(fabric, View(tiles=(2, 2), size=64, spp=1, camera="perspective", fov_deg=10)))
+    assert np.isfinite(persp).all()
+    assert abs(persp.mean() - ortho.mean()) < 0.1 * ortho.mean()
+
+
+@pytest.mark.parametrize("end", [0, 1], ids=["lower", "upper"])
+def test_every_parameter_at_the_ends_of_its_range(end):
+    """Renders and gradients stay finite and renders non-negative at Table 1's bounds."""
+    fabric = params.load(FIXTURES[0])
+    values = {}
+    for key, bounds in FIT_RANGES.items():
+        v = bounds[end]
+        current = fabric.get(key)
+        values[key] = tuple([v] * 3) if isinstance(current, tuple) else (int(v) if key in ("plies", "fibers") else v)
+    fabric = fabric.replace(values)
+    scene = build_scene(fabric, View(tiles=(1, 1), size=32, spp=1))
+    image = render_numpy(scene)
+    assert np.isfinite(image).all() and image.min() >= 0
+    keys = [k for k in FIT_RANGES if k not in ("plies", "fibers")]
+    _, grads, _ = mse_and_gradients(scene, np.full_like(image, 0.3), keys)
+    for key, g in grads.items():
+        assert np.isfinite(g).all(), key
+
+
+FD_KEYS = ["specular.roughness", "specular.ior", "specular.coefficient", "body_attenuation", "shadowing.ply",
+           "shadowing.fiber", "specular.roughness_exit", "specular.attenuation", "warp.body_reflection",
+           "specular.transmission"]
+
+
+def test_gradients_match_finite_differences():
+    """d MSE / d parameter by reverse-mode AD equals a central difference, for ten parameters."""
+    fabric = params.load([p for p in FIXTURES if p.stem == "twill_2_1"][0])
+    scene = build_scene(fabric, View(tiles=(1, 1), size=40, spp=1))
+    rng = np.random.default_rng(0)
+    target = (render_numpy(scene) * 0.8 + 0.05 * rng.random((40, 40, 3))).astype(np.float32)
+    _, grads, _ = mse_and_gradients(scene, target, FD_KEYS)
+
+    def loss() -> float:
+        return float(np.mean((render_numpy(scene).astype(np.float64) - target) ** 2))
+
+    for key in FD_KEYS:
+        v0 = fabric.get(key)
+        channel = 0 if isinstance(v0, tuple) else None
+        x0 = v0[0] if channel is not None else v0
+        h = 1e-3
+        ends = []
+        for x in (x0 - h, x0 + h):
+            scene.set(key, (x, *v0[1:]) if channel is not None else x)
+            ends.append(loss())
+        scene.set(key, v0)
+        fd = (ends[1] - ends[0]) / (2 * h)
+        ad = grads[key][0]
+        assert abs(fd) > 1e-7, f"{key}: the loss should depend on it"
+        assert ad == pytest.approx(fd, rel=0.03, abs=1e-7), key
+
+
+def test_radius_gradient_points_towards_the_true_radius():
+    fabric = params.load(FIXTURES[0])
+    truth = render_numpy(build_scene(fabric, View(tiles=(1, 1), size=40, spp=1)))
+    r0 = fabric.warp.radius
+    for offset in (-0.5, 0.5):
+        scene = build_scene(fabric.replace({"warp.radius": r0 + offset}), View(tiles=(1, 1), size=40, spp=1))
+        _, grads, _ = mse_and_gradients(scene, truth, ["warp.radius"])
+        assert np.sign(grads["warp.radius"][0]) == np.sign(offset)
