@@ -37,5 +37,5 @@ fixtures: install
 
 # Performance figures of the README (cold and warm renders, forward and backward, memory)
 bench: install
-	$(BIN)/python scripts/bench_render.py
+	$(BIN)/weavecap bench
 	$(BIN)/python scripts/measure_geometry.py

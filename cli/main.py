@@ -22,6 +22,7 @@ COMMANDS = {
     "synth": "weavecap.cli.synth:synth",
     "prepare": "weavecap.cli.prepare:prepare",
     "doctor": "weavecap.cli.doctor:doctor",
+    "bench": "weavecap.cli.bench:bench",
 }
 
 
@@ -69,6 +70,7 @@ def cli() -> None:
       weavecap synth fixtures/params/twill_2_1.json -o twill.png --tiles 4x4
       weavecap prepare photo.jpg -o prepared/
       weavecap doctor
+      weavecap bench
 
     Exit status: 0 done; 2 bad usage or invalid input file; 3 photo rejected; 1 unexpected.
     """
