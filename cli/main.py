@@ -23,6 +23,7 @@ COMMANDS = {
     "prepare": "weavecap.cli.prepare:prepare",
     "doctor": "weavecap.cli.doctor:doctor",
     "bench": "weavecap.cli.bench:bench",
+    "train-initializer": "weavecap.cli.train_initializer:train_initializer",
 }
 
 

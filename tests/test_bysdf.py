@@ -25,7 +25,7 @@ import drjit as dr  # noqa: E402  (after the backend chose libLLVM)
 
 from weavecap.model import bysdf as b  # noqa: E402
 
-WHITE = dict(reflection=1.0, transmission=0.5, transmission_exit=1.0, attenuation=0.0, body_attenuation=0.0,
+WHITE = dict(reflection=1.0, transmission=0.3, transmission_exit=0.5, attenuation=0.0, body_attenuation=0.0,
              body_reflection=1.0, body_subsurface=1.0, ply_shadow=0.0, fiber_shadow=0.0, coefficient=0.5)
 NOTHING = dict(reflection=0.0, transmission=0.0, transmission_exit=0.0, attenuation=0.0, body_attenuation=0.0,
                body_reflection=0.0, body_subsurface=0.0, ply_shadow=0.0, fiber_shadow=0.0)
@@ -240,7 +240,9 @@ def test_albedo_matches_the_integral_of_the_body_lobes(cos_v):
 
 FURNACE_COS = [1e-6, 1e-3, 0.1, 0.5, 1.0]
 FURNACE_ROUGHNESS = [1e-4, 1e-2, 0.1, 0.5, 1.0]
-FURNACE_MIX = [dict(transmission=t, coefficient=m) for t in (0.0, 0.5, 1.0) for m in (0.0, 1.0)]
+#: how the white yarn shares light among its lobes: T^S, T^S_y and m_r (T^S_y = 1 leaves no body)
+FURNACE_MIX = [dict(transmission=t, transmission_exit=t_y, coefficient=m)
+               for t, t_y, m in [(0, 0, 1), (0, 0, 0), (0.5, 0.5, 0.5), (0.2, 0, 1), (0, 1, 0.5), (1, 1, 0.5)]]
 FURNACE = [(c, {**WHITE, **mix, "roughness": r, "roughness_exit": r})
            for c, r, mix in itertools.product(FURNACE_COS, FURNACE_ROUGHNESS, FURNACE_MIX)]
 LANES = 20_000
@@ -264,7 +266,8 @@ def furnace():
 
 def _cases(rows):
     return [f"cos_v={FURNACE[i][0]:g} roughness={FURNACE[i][1]['roughness']:g} "
-            f"T={FURNACE[i][1]['transmission']:g} m_r={FURNACE[i][1]['coefficient']:g}" for i in rows]
+            f"T={FURNACE[i][1]['transmission']:g} T_y={FURNACE[i][1]['transmission_exit']:g} "
+            f"m_r={FURNACE[i][1]['coefficient']:g}" for i in rows]
 
 
 def test_white_furnace_by_sampling(furnace):

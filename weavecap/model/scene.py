@@ -106,6 +106,9 @@ class View:
     spp: int = 4
 
     def __post_init__(self):
+        if not (math.isfinite(self.rotate_deg) and math.isfinite(self.fov_deg)):
+            raise InputError(f"rotation {self.rotate_deg} and field of view {self.fov_deg} must be finite numbers "
+                             "of degrees")
         if self.camera not in ("orthographic", "perspective"):
             raise InputError(f"camera {self.camera!r} is unknown; use orthographic or perspective")
         if not (8 <= self.size <= 8192):
@@ -197,9 +200,10 @@ class FabricScene:
     cache: dict = field(default_factory=dict)  # G-buffers of weavecap.model.render, per (spp, seed)
 
     def set(self, key: str, value) -> None:
-        """Set one parameter by dotted key; a radius rebuilds the geometry."""
-        if key in GEOMETRY_KEYS:
-            self.fabric = self.fabric.replace({key: float(value)})
+        """Set one parameter by dotted key (or ``"pattern"``); a radius or a pattern rebuilds
+        the geometry (milliseconds), any other value only changes what the kernels read."""
+        if key in GEOMETRY_KEYS or key == "pattern":
+            self.fabric = self.fabric.replace({key: value if key == "pattern" else float(value)})
             _rebuild(self)
             return
         if key not in self.values:
@@ -209,11 +213,20 @@ class FabricScene:
             else mi.Float(float(value))
         dr.make_opaque(new)
         self.values[key] = new
-        for plugin in self._plugins():
-            plugin.values.update({sk: self.values[fk] for sk, fk in SHADING_KEYS.items()})
+        for shape, yarn in zip(self.scene.shapes(), ("weft", "warp")):
+            _bind(shape.bsdf(), self.values, yarn)
 
-    def _plugins(self):
-        return [shape.bsdf() for shape in self.scene.shapes()]
+    def to_fabric(self) -> Fabric:
+        """The fabric with the store's current values (plies and fibres rounded to integers)."""
+        values = {}
+        for key, value in self.values.items():
+            if key in self.textures:
+                continue
+            flat = np.array(dr.ravel(value), dtype=np.float64)
+            values[key] = tuple(flat.tolist()) if isinstance(value, mi.Color3f) else float(flat[0])
+        for key in ("plies", "fibers"):
+            values[key] = int(round(values[key]))
+        return self.fabric.replace(values)
 
     def shading(self) -> "_bysdf.Shading":
         """The shared BYSDF parameters, from the store."""
@@ -231,18 +244,22 @@ def _initial_values(fabric: Fabric) -> dict:
     return values
 
 
+def _bind(plugin, values: dict, yarn: str) -> None:
+    """Point a yarn's BYSDF plugin at the store's values (shared shading + its own colours)."""
+    plugin.values.update({sk: values[fk] for sk, fk in SHADING_KEYS.items()})
+    for key in ("body_reflection", "body_subsurface"):
+        if f"{yarn}.{key}" in values:
+            plugin.values[key] = values[f"{yarn}.{key}"]
+
+
 def _rebuild(fs: FabricScene) -> None:
     fabric, frame = fs.fabric, fs.frame
     wefts, warps = fabric_meshes(fabric.pattern, r_warp=fabric.warp.radius, r_weft=fabric.weft.radius,
                                  rows=frame.rows, cols=frame.cols)
-    shading = {sk: fs.values[fk] for sk, fk in SHADING_KEYS.items()}
     plugins = []
     for yarn in ("weft", "warp"):
         plugin = _bysdf.BYSDF(mi.Properties())
-        plugin.values.update(shading)
-        for key in ("body_reflection", "body_subsurface"):
-            if f"{yarn}.{key}" in fs.values:
-                plugin.values[key] = fs.values[f"{yarn}.{key}"]
+        _bind(plugin, fs.values, yarn)
         plugins.append(plugin)
     weft_mesh = _mesh("wefts", wefts, plugins[0])
     warp_mesh = _mesh("warps", warps, plugins[1])
