@@ -130,7 +130,7 @@ def test_non_weaves_are_rejected_with_a_reason(kind):
 
 def test_config_is_plain_data():
     c = PrepareConfig()
-    assert c.gaussian_sigma_pitch == 1 / 16 and c.min_pitch_px == 3.0
+    assert c.gaussian_sigma_pitch == 1 / 16 and c.min_pitch_px == 3.5
     with pytest.raises(Exception):
         c.min_pitch_px = 1.0  # frozen
 

@@ -84,11 +84,11 @@ class PrepareConfig:
 
     # --- rejection ---------------------------------------------------------------------------
     #: smallest resolvable yarn pitch in input px
-    min_pitch_px: float = 3.0
+    min_pitch_px: float = 3.5
     #: smallest relative contrast of the texture (std / mean of the flattened grey)
     min_contrast: float = 0.02
     #: smallest periodicity of the integral projection at the pitch (see grid.folded_strength)
-    min_grid_strength: float = 0.5
+    min_grid_strength: float = 0.35
     #: smallest share of the image's structure (std) its projections keep along each axis
     min_grid_contrast: float = 0.08
     #: largest departure from 90° of the two yarn families (degrees)

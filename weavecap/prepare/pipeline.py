@@ -150,6 +150,15 @@ def draw_grid(image: np.ndarray, grid: Grid, box=None, *, min_side: int = 512) -
     return img
 
 
+def _dedupe(b: np.ndarray, gap: float) -> np.ndarray:
+    """Drop boundaries closer than ``gap`` to the one kept before them (ascending input)."""
+    keep: list[float] = []
+    for v in b:
+        if not keep or v - keep[-1] >= gap:
+            keep.append(float(v))
+    return np.asarray(keep)
+
+
 def _central(img: np.ndarray, side: int) -> np.ndarray:
     h, w = img.shape[:2]
     bh, bw = min(h, side), min(w, side)
@@ -312,7 +321,7 @@ def prepare_photo(rgb: np.ndarray, config: PrepareConfig = PrepareConfig(), *,
         yb_in = boundaries(projection(rg, axis=1), py, offset=y0)
         xb = np.concatenate([xb[xb < x0 + 0.25 * px], xb_in, xb[xb > x1 + 0.75 * px]])
         yb = np.concatenate([yb[yb < y0 + 0.25 * py], yb_in, yb[yb > y1 + 0.75 * py]])
-        xb, yb = np.unique(np.round(xb, 3)), np.unique(np.round(yb, 3))
+        xb, yb = _dedupe(np.sort(xb), px / 3), _dedupe(np.sort(yb), py / 3)
     origin = (float(y0), float(x0)) if reg.method == "kpca" else origin
     grid = Grid(x=AxisGrid(px, strengths[0], contrasts[0], xb), y=AxisGrid(py, strengths[1], contrasts[1], yb),
                 repeat_px=(ny * py, nx * px), yarns=(ny, nx), repeat_found=(found[0], found[1]), origin_px=origin)

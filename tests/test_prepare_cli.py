@@ -1,0 +1,102 @@
+"""``weavecap prepare`` through click's CliRunner: outputs, schema, rejection, errors."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import jsonschema
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from weavecap.cli.main import cli
+from weavecap.photo import save_png
+
+sys.path.insert(0, str(Path(__file__).parent / "prepare"))
+from synthetic import render  # noqa: E402
+
+SCHEMAS = [Path(__file__).resolve().parents[1] / "weavecap" / "schemas" / "report.schema.json",
+           Path(__file__).resolve().parents[2] / "shared" / "contracts" / "report.schema.json"]
+OUTPUTS = ["rectified.png", "regularized.png", "grid.png", "prepare.json"]
+
+
+def _run(*args):
+    return CliRunner().invoke(cli, ["prepare", *map(str, args)], catch_exceptions=False)
+
+
+@pytest.fixture(scope="module")
+def weave_png(tmp_path_factory) -> Path:
+    img, _ = render("twill_2_1", size=(256, 256), pitch_px=9, angle_deg=-10, noise=0.01, seed=4)
+    path = tmp_path_factory.mktemp("photo") / "twill.png"
+    save_png(path, img)
+    return path
+
+
+def test_writes_outputs_valid_against_the_report_schema(weave_png, tmp_path):
+    res = _run(weave_png, "-o", tmp_path / "out")
+    assert res.exit_code == 0, res.output
+    for name in OUTPUTS:
+        assert (tmp_path / "out" / name).stat().st_size > 0
+    doc = json.loads((tmp_path / "out" / "prepare.json").read_text())
+    assert doc["status"] == "ok"
+    for schema_path in SCHEMAS:
+        if not schema_path.exists():
+            continue
+        schema = json.loads(schema_path.read_text())
+        for part in ("rectification", "grid"):
+            jsonschema.validate(doc[part], schema["properties"][part])
+    assert abs(doc["rectification"]["rotation_deg"] - (-10)) < 0.5  # fabric turned CW by 10° in the photo
+    assert doc["grid"]["yarns"] == [3, 3]
+    assert np.array(doc["rectification"]["homography"]).shape == (3, 3)
+    assert len(doc["grid"]["pitch_px"]) == 2 and len(doc["grid"]["repeat_px"]) == 2
+    assert "rectifying" in res.stderr
+
+
+def test_quiet_prints_nothing(weave_png, tmp_path):
+    res = _run(weave_png, "-o", tmp_path / "out", "-q")
+    assert res.exit_code == 0 and res.output == ""
+
+
+def test_refuses_to_overwrite_without_force(weave_png, tmp_path):
+    assert _run(weave_png, "-o", tmp_path, "-q").exit_code == 0
+    before = (tmp_path / "prepare.json").read_bytes()
+    res = _run(weave_png, "-o", tmp_path, "-q")
+    assert res.exit_code == 2 and "--force" in res.output
+    assert (tmp_path / "prepare.json").read_bytes() == before
+    assert _run(weave_png, "-o", tmp_path, "-q", "--force").exit_code == 0
+
+
+def test_rejection_exits_3_and_keeps_what_was_there(tmp_path):
+    noise = np.random.default_rng(0).uniform(0, 1, (200, 200, 3)).astype(np.float32)
+    save_png(tmp_path / "noise.png", noise)
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "prepare.json").write_text("{}")
+    res = _run(tmp_path / "noise.png", "-o", out, "--force")
+    assert res.exit_code == 3
+    assert "rejected" in res.output and "noise.png" in res.output and "Traceback" not in res.output
+    assert (out / "prepare.json").read_text() == "{}"
+    assert not (out / "rectified.png").exists()
+
+
+def test_missing_and_unreadable_photos(tmp_path):
+    res = _run(tmp_path / "nope.jpg", "-o", tmp_path / "o")
+    assert res.exit_code == 3 and "nope.jpg" in res.output and "Traceback" not in res.output
+    bad = tmp_path / "bad.jpg"
+    bad.write_bytes(b"not a jpeg at all")
+    res = _run(bad, "-o", tmp_path / "o")
+    assert res.exit_code == 3 and "bad.jpg" in res.output
+
+
+def test_output_that_is_a_file_is_a_usage_error(weave_png, tmp_path):
+    f = tmp_path / "file"
+    f.write_text("x")
+    res = _run(weave_png, "-o", f)
+    assert res.exit_code == 2 and "is a file" in res.output
+
+
+def test_help_has_examples():
+    res = CliRunner().invoke(cli, ["prepare", "--help"])
+    assert res.exit_code == 0 and "Examples" in res.output and "weavecap prepare" in res.output
