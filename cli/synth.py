@@ -28,10 +28,12 @@ from .options import force_option, parse_tiles, quiet_option, seed_option
               show_default=True, help="Camera model.")
 @click.option("--fov", "fov_deg", default=30.0, show_default=True, type=float,
               help="Field of view of the perspective camera, degrees.")
+@click.option("--noise/--no-noise", default=True, show_default=True,
+              help="Add the irregularity noise stored in the params file (§6.3), if it has any.")
 @seed_option
 @force_option
 @quiet_option
-def synth(params_file: Path, output: Path, tiles, size, light, spp, rotate_deg, camera, fov_deg, seed,
+def synth(params_file: Path, output: Path, tiles, size, light, spp, rotate_deg, camera, fov_deg, noise, seed,
           force, quiet):
     """Render a synthetic close-up photo of the fabric in PARAMS.json.
 
@@ -60,6 +62,11 @@ def synth(params_file: Path, output: Path, tiles, size, light, spp, rotate_deg, 
     start = time.perf_counter()
     scene = build_scene(fabric, view, light=light)
     image = render_numpy(scene, seed=seed)
+    if noise and fabric.noise:
+        from weavecap.noise import add_noise
+
+        pitch_px = image.shape[1] / (tiles[1] * fabric.shape[1])  # yarn pitch in the image, px
+        image = add_noise(image, fabric.noise, pitch_px=pitch_px, seed=seed)
     save_image(output, image)
     if not quiet:
         h, w = image.shape[:2]

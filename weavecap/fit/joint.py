@@ -22,6 +22,7 @@ from typing import Callable
 import numpy as np
 import torch
 
+from ..estimate.cells import cell_errors
 from ..model.render import mse_and_gradients, render_numpy
 from ..model.scene import GEOMETRY_KEYS, FabricScene, View, build_scene
 from ..params import CONTINUOUS_KEYS, FIT_RANGES, Fabric
@@ -111,11 +112,13 @@ class _Annealer:
             self.kinds += [k for k in GEOMETRY_KEYS if k not in fixed]
         self.moves = {k: [0, 0] for k in self.kinds}
 
-    def _propose(self, kind: str):
+    def _propose(self, kind: str, errors: np.ndarray):
         fabric = self.fs.fabric
         if kind == "pattern":
+            # flip a cell chosen in proportion to its share of the error: wrong cells stand out
             pattern = fabric.pattern.copy()
-            i, j = self.rng.integers(pattern.shape[0]), self.rng.integers(pattern.shape[1])
+            weights = errors.ravel() + 1e-12
+            i, j = np.unravel_index(self.rng.choice(weights.size, p=weights / weights.sum()), pattern.shape)
             pattern[i, j] ^= 1
             return pattern
         lo, hi = FIT_RANGES[kind]
@@ -134,12 +137,14 @@ class _Annealer:
             return float(np.asarray(self.fs.values[kind]).ravel()[0])
         return float(self.fs.fabric.get(kind))
 
-    def step(self, target: np.ndarray, loss: float, spp: int) -> float:
-        """Propose one move; return the loss of the state kept."""
+    def step(self, target: np.ndarray, image: np.ndarray, spp: int) -> float:
+        """Propose one move from the state rendered as ``image``; return the loss kept."""
+        loss = _mse(image, target)
         if not self.kinds:
             return loss
         kind = self.kinds[self.rng.integers(len(self.kinds))]
-        old, new = self._current(kind), self._propose(kind)
+        errors = cell_errors(image, target, self.fs.fabric.shape, trim=0.0) if kind == "pattern" else None
+        old, new = self._current(kind), self._propose(kind, errors)
         self.moves[kind][0] += 1
         self.fs.set(kind, new)
         new_loss = _mse(render_numpy(self.fs, spp=spp), target)
@@ -153,23 +158,59 @@ class _Annealer:
         return loss
 
 
+class _RadiusSearch:
+    """Greedy pattern search on the yarn radii, which no rendering gradient reaches smoothly:
+    try ±δ on each radius, keep an improvement, halve δ when neither side helps."""
+
+    def __init__(self, fs: FabricScene, config: FitConfig, keys: list[str]):
+        self.fs, self.keys = fs, keys
+        self.step_size = {k: config.radius_step for k in keys}
+        self.min_step = config.radius_min_step
+        self.moves = {k: [0, 0] for k in keys}
+
+    def step(self, target: np.ndarray, loss: float, spp: int) -> float:
+        for key in self.keys:
+            delta = self.step_size[key]
+            if delta < self.min_step:
+                continue
+            r0 = float(self.fs.fabric.get(key))
+            lo, hi = FIT_RANGES[key]
+            best_r, best_loss = r0, loss
+            for r in (min(hi, r0 + delta), max(lo, r0 - delta)):
+                if r == r0:
+                    continue
+                self.moves[key][0] += 1
+                self.fs.set(key, r)
+                trial = _mse(render_numpy(self.fs, spp=spp), target)
+                if trial < best_loss:
+                    best_r, best_loss = r, trial
+            if best_r != r0:
+                self.moves[key][1] += 1
+            else:
+                self.step_size[key] = delta / 2
+            self.fs.set(key, best_r)
+            loss = best_loss
+        return loss
+
+
 def fit(target: np.ndarray, start: Fabric, *, config: FitConfig = FitConfig(), light: str = "both",
         seed: int = 0, budget_s: float | None = None, fixed: frozenset[str] = frozenset(),
-        radius_mode: str = "anneal", progress: Callable[[int, int, float], None] | None = None) -> FitResult:
+        radius_mode: str = "search", progress: Callable[[int, int, float], None] | None = None) -> FitResult:
     """Fit ``start`` to ``target``, one repeat of the photo (§6).
 
     Parameters
     ----------
-    target : (H, W, 3) float32 linear RGB, exactly one repeat (wefts down, warps across), at
-        the aspect ratio of the pattern's repeat; resampled by the caller to ``config.size``
+    target : (n_e * c, n_a * c, 3) float32 linear RGB, the cell canvas of one repeat of the
+        photo (:func:`weavecap.estimate.cells.cell_canvas`, c = :func:`.config.cell_px_for`)
     start : the pre-estimate (pattern, colours, initializer's values)
     config : hyper-parameters (see :data:`weavecap.fit.config.PRESETS`)
     light : the light rig (§6.4)
     seed : seeds the annealing; the same seed gives the same result
     budget_s : stop after this many seconds (the best state so far is returned)
     fixed : names not to fit: ``"pattern"``, ``"plies"``, ``"fibers"``, radii or continuous keys
-    radius_mode : ``"anneal"`` (discrete proposals) or ``"gradient"`` (finite-difference
-        gradients inside Adam)
+    radius_mode : how the radii are fitted: ``"search"`` (greedy pattern search every
+        ``config.radius_every`` steps), ``"anneal"`` (Metropolis proposals among the discrete
+        moves) or ``"gradient"`` (finite-difference gradients inside Adam)
     progress : called after each step with (step, iterations, loss)
     """
     t0 = time.perf_counter()
@@ -179,13 +220,15 @@ def fit(target: np.ndarray, start: Fabric, *, config: FitConfig = FitConfig(), l
     if fs.frame.shape != (h, w):
         raise ValueError(f"target is {h}x{w} px but a repeat of the {start.shape} pattern renders at "
                          f"{fs.frame.shape[0]}x{fs.frame.shape[1]}")
-    geometry = [] if radius_mode == "anneal" else [k for k in GEOMETRY_KEYS if k not in fixed]
+    free_radii = [k for k in GEOMETRY_KEYS if k not in fixed]
+    geometry = free_radii if radius_mode == "gradient" else []
     keys = [k for k in CONTINUOUS_KEYS if k not in fixed and k not in fs.textures
             and (k not in GEOMETRY_KEYS or k in geometry)]
     vec = _Vector(fs, keys)
     unit = torch.tensor(np.clip(vec.read(start), 0.0, 1.0), dtype=torch.float64, requires_grad=True)
     adam = torch.optim.Adam([unit], lr=config.learning_rate)
     annealer = _Annealer(fs, config, np.random.default_rng(seed), radius_mode=radius_mode, fixed=fixed)
+    search = _RadiusSearch(fs, config, free_radii if radius_mode == "search" else [])
 
     best_loss, best_fabric, history, stopped = math.inf, start, [], "iterations"
     step = 0
@@ -202,7 +245,9 @@ def fit(target: np.ndarray, start: Fabric, *, config: FitConfig = FitConfig(), l
             unit.clamp_(0.0, 1.0)
         vec.write(fs, unit.detach().numpy())
         if step % config.anneal_every == 0:
-            annealer.step(target, _mse(render_numpy(fs, spp=config.spp), target), config.spp)
+            annealer.step(target, render_numpy(fs, spp=config.spp), config.spp)
+        if search.keys and step % config.radius_every == 1:
+            search.step(target, _mse(render_numpy(fs, spp=config.spp), target), config.spp)
         if progress is not None:
             progress(step, config.iterations, loss)
         if budget_s is not None and time.perf_counter() - t0 > budget_s:
@@ -215,6 +260,6 @@ def fit(target: np.ndarray, start: Fabric, *, config: FitConfig = FitConfig(), l
     final = _mse(render_numpy(fs, spp=config.spp), target)
     if final < best_loss:
         best_loss, best_fabric = final, fs.to_fabric()
-    moves = {k: {"proposed": v[0], "accepted": v[1]} for k, v in annealer.moves.items()}
+    moves = {k: {"proposed": v[0], "accepted": v[1]} for k, v in {**annealer.moves, **search.moves}.items()}
     return FitResult(fabric=best_fabric, loss=best_loss, history=history, iterations=step,
                      seconds=time.perf_counter() - t0, stopped=stopped, moves=moves)

@@ -1,0 +1,114 @@
+"""Irregularity post-estimation (§6.3 of Wu et al. 2025): 2D Gaussians over the residual's
+frequency spectrum, and synthesis of matching noise for tiles of any size.
+
+The residual (photo minus fitted render, grey, linear) holds what the procedural model cannot:
+flyaways, uneven yarns, highlights. Its power spectrum is modelled as a mixture of 2D
+Gaussians in frequency measured in *cycles per yarn pitch*, so the model does not depend on
+the photo's resolution. Each Gaussian's ``weight`` is the variance it carries (linear
+intensity²), so the weights sum to the residual's variance. Synthesis draws random phases
+under that spectrum and transforms back to the image domain [GHCG17-style spectral synthesis].
+
+The fit samples frequencies with probability proportional to power and fits scikit-learn's
+``GaussianMixture`` to them — a few thousand points, milliseconds.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from sklearn.mixture import GaussianMixture
+
+SAMPLES = 4000  # frequency samples drawn from the power spectrum for the mixture fit
+MIN_VARIANCE = 1e-10  # below this the residual is treated as noise-free
+
+
+def _frequencies(shape: tuple[int, int], pitch_px: float) -> tuple[np.ndarray, np.ndarray]:
+    """FFT-grid frequencies (fy, fx) in cycles per yarn pitch, each of ``shape``."""
+    fy = np.fft.fftfreq(shape[0]) * pitch_px
+    fx = np.fft.fftfreq(shape[1]) * pitch_px
+    return np.meshgrid(fy, fx, indexing="ij")
+
+
+def fit_noise(residual: np.ndarray, *, pitch_px: float, components: int = 4, seed: int = 0) -> dict:
+    """Fit the §6.3 model to a residual.
+
+    Parameters
+    ----------
+    residual : (H, W) or (H, W, 3) float array (linear; colour is averaged to grey). Non-finite
+        entries count as 0.
+    pitch_px : the yarn pitch in the residual's pixels (sets the frequency unit)
+    components : number of Gaussians (fewer when the residual is too small)
+    seed : seeds the mixture fit
+
+    Returns
+    -------
+    ``{"gaussians": [{"weight", "mean": [fy, fx], "cov": [[..], [..]]}, ...]}`` as in
+    params.schema.json (mean/cov in cycles per pitch; no Gaussians for a flat residual).
+    """
+    r = np.asarray(residual, dtype=np.float64)
+    if r.ndim == 3:
+        r = r.mean(axis=2)
+    r = np.where(np.isfinite(r), r, 0.0)
+    r = r - r.mean()
+    variance = float(np.mean(r**2))
+    if r.size < 16 or variance < MIN_VARIANCE or not np.isfinite(pitch_px) or pitch_px <= 0:
+        return {"gaussians": []}
+    power = np.abs(np.fft.fft2(r)) ** 2
+    power[0, 0] = 0.0
+    fy, fx = _frequencies(r.shape, pitch_px)
+    rng = np.random.default_rng(seed)
+    p = power.ravel() / power.sum()
+    idx = rng.choice(p.size, size=SAMPLES, p=p)
+    # jitter within a frequency bin so that a single strong bin is not a zero-width point
+    dy, dx = pitch_px / r.shape[0], pitch_px / r.shape[1]
+    pts = np.stack([fy.ravel()[idx] + rng.uniform(-dy / 2, dy / 2, SAMPLES),
+                    fx.ravel()[idx] + rng.uniform(-dx / 2, dx / 2, SAMPLES)], axis=1)
+    k = int(max(1, min(components, len(np.unique(idx)))))
+    gmm = GaussianMixture(n_components=k, covariance_type="full", reg_covar=max(dy, dx) ** 2 / 12,
+                          random_state=seed).fit(pts)
+    gaussians = [{"weight": float(w * variance), "mean": [float(v) for v in m],
+                  "cov": [[float(v) for v in row] for row in c]}
+                 for w, m, c in zip(gmm.weights_, gmm.means_, gmm.covariances_)]
+    return {"gaussians": gaussians}
+
+
+def spectrum(noise: dict, shape: tuple[int, int], pitch_px: float) -> np.ndarray:
+    """The model's power density (variance per unit frequency², cycles per pitch) on the FFT
+    grid of ``shape``."""
+    fy, fx = _frequencies(shape, pitch_px)
+    f = np.stack([fy, fx], axis=-1)
+    out = np.zeros(shape)
+    for g in noise.get("gaussians", []):
+        cov = np.asarray(g["cov"], dtype=np.float64)
+        inv, det = np.linalg.inv(cov), np.linalg.det(cov)
+        d = f - np.asarray(g["mean"], dtype=np.float64)
+        q = np.einsum("...i,ij,...j->...", d, inv, d)
+        out += g["weight"] * np.exp(-0.5 * q) / (2 * np.pi * np.sqrt(det))
+    return out
+
+
+def synthesize(noise: dict, shape: tuple[int, int], *, pitch_px: float, seed: int = 0) -> np.ndarray:
+    """A (H, W) noise tile with the model's spectrum: random phases, amplitude √density.
+
+    The tile is periodic (it tiles seamlessly) and its variance is the model's variance within
+    the frequencies the tile can hold (up to Nyquist), so a coarser tile carries less.
+    """
+    shape = (int(shape[0]), int(shape[1]))
+    s = spectrum(noise, shape, pitch_px)
+    df = (pitch_px / shape[0]) * (pitch_px / shape[1])
+    target_var = float(np.sum(s) * df)
+    if target_var <= MIN_VARIANCE or shape[0] * shape[1] < 2:
+        return np.zeros(shape)
+    rng = np.random.default_rng(seed)
+    white = np.fft.fft2(rng.standard_normal(shape))
+    tile = np.real(np.fft.ifft2(white * np.sqrt(s)))
+    tile -= tile.mean()
+    std = tile.std()
+    return tile * (np.sqrt(target_var) / std) if std > 0 else tile
+
+
+def add_noise(image: np.ndarray, noise: dict | None, *, pitch_px: float, seed: int = 0) -> np.ndarray:
+    """``image`` (H, W, 3) linear RGB plus synthesized noise on every channel, clipped at 0."""
+    if not noise or not noise.get("gaussians"):
+        return image
+    tile = synthesize(noise, image.shape[:2], pitch_px=pitch_px, seed=seed)
+    return np.clip(image + tile[..., None], 0.0, None).astype(image.dtype)

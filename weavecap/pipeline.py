@@ -1,0 +1,298 @@
+"""The capture pipeline of ``weavecap fit`` for one photo (DESIGN.md; Wu et al. 2025 §4–6).
+
+load → prepare (§4: rectify, regularize, period, grid) → pre-estimate (§5: pattern, colours,
+initializer) → joint fit (§6.1–6.2) → noise (§6.3) → outputs. Each stage is timed; a photo
+that is not a resolvable woven fabric ends as a :class:`Capture` with status ``rejected`` and a
+reason, not as an exception. :func:`write_capture` writes the outputs of DESIGN.md atomically,
+``report.json`` last (its presence marks a finished photo).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from . import params as wparams
+from .errors import PhotoError
+from .fit.config import PRESETS, FitConfig, cell_px_for
+from .io import atomic_write_text
+
+REPORT_FORMAT = "weavecap.report/1"
+OUTPUT_FILES = ("params.json", "report.json", "compare.png", "rectified.png", "grid.png", "loss.png")
+
+
+@dataclass(frozen=True)
+class CaptureOptions:
+    """What the user chose for a capture (``weavecap fit``'s options).
+
+    Attributes
+    ----------
+    quality : preset name of :data:`weavecap.fit.config.PRESETS`
+    light : the light rig the photo was taken under (§6.4)
+    seed : seeds every random choice; the same seed gives the same result
+    budget_s : wall-time limit of the joint fit, seconds (None: the preset's iterations)
+    start_from : a fabric to start the fit from instead of the pre-estimate (warm start)
+    pattern : a known pattern (fixed during the fit), or None
+    use_network : False skips the initializer network (defaults, §7.3)
+    """
+
+    quality: str = "normal"
+    light: str = "both"
+    seed: int = 0
+    budget_s: float | None = None
+    start_from: wparams.Fabric | None = None
+    pattern: np.ndarray | None = None
+    use_network: bool = True
+
+    @property
+    def config(self) -> FitConfig:
+        return PRESETS[self.quality]
+
+
+@dataclass
+class Capture:
+    """The result of :func:`capture` for one photo: the report, and what to write."""
+
+    report: dict
+    fabric: wparams.Fabric | None = None
+    images: dict = field(default_factory=dict)  # output name → (H, W, 3) linear RGB
+    history: list = field(default_factory=list)
+
+    @property
+    def status(self) -> str:
+        return self.report["status"]
+
+
+def psnr(a: np.ndarray, b: np.ndarray) -> float:
+    """PSNR in dB of two linear images clipped to [0, 1] (peak 1)."""
+    mse = float(np.mean((np.clip(a, 0, 1).astype(np.float64) - np.clip(b, 0, 1)) ** 2))
+    return float(10 * np.log10(1.0 / max(mse, 1e-12)))
+
+
+def _repeat_cells(prepared, image_box: tuple[float, float, float, float]):
+    """The cells of one repeat inside the regularized box, in the box's pixels."""
+    from .estimate.cells import CellGrid
+
+    grid = prepared.grid
+    rows, cols = grid.cells()
+    y0, x0 = image_box[0], image_box[1]
+    rh, rw = rows[-1] - rows[0], cols[-1] - cols[0]
+    # move the repeat by whole repeats so that it starts inside the box
+    dy = y0 + np.mod(rows[0] - y0, rh) - rows[0]
+    dx = x0 + np.mod(cols[0] - x0, rw) - cols[0]
+    return CellGrid(rows=rows + dy - y0, cols=cols + dx - x0), (dy, dx)
+
+
+def align_cells(image: np.ndarray, cells):
+    """Put the cell corners on the gaps between yarns: of the four half-pitch shifts of
+    ``cells``, the one whose corners vary most and whose centres vary least (§5's cells are
+    centred on yarn crossings).
+
+    The yarn boundaries of §4.4 are valleys of the integral projection — right under front
+    light, where gaps are dark, but half a pitch off under back light, where they glow. A
+    corner window holds a gap and four yarn edges whatever the light; a centre window sits on a
+    smooth crossing. ``image`` (H, W, 3) linear RGB, ``cells`` a CellGrid in its pixels.
+    """
+    from .estimate.cells import CellGrid, cell_canvas
+
+    c = 12
+    win = max(1, c // 4)
+    best, best_score = cells, -np.inf
+    for dy in (0.0, 0.5):
+        for dx in (0.0, 0.5):
+            shifted = CellGrid(rows=cells.rows + dy * np.diff(cells.rows).mean(),
+                               cols=cells.cols + dx * np.diff(cells.cols).mean())
+            grey = cell_canvas(image, shifted, c).mean(axis=2)
+            tiles = grey.reshape(shifted.shape[0], c, shifted.shape[1], c).transpose(0, 2, 1, 3)
+            centre = tiles[:, :, c // 2 - win: c // 2 + win, c // 2 - win: c // 2 + win]
+            corner = np.roll(np.roll(grey, win, axis=0), win, axis=1)
+            corner = corner.reshape(shifted.shape[0], c, shifted.shape[1], c).transpose(0, 2, 1, 3)[:, :, :2 * win, :2 * win]
+            score = float(corner.var(axis=(2, 3)).mean() - centre.var(axis=(2, 3)).mean())
+            if score > best_score:
+                best, best_score = shifted, score
+    return best
+
+
+def _pattern_confidence(fs, target: np.ndarray, spp: int) -> float:
+    """Fraction of cells whose fitted state explains the photo better than its opposite."""
+    from .estimate.cells import cell_errors
+    from .model.render import render_numpy
+
+    pattern = fs.fabric.pattern.copy()
+    now = cell_errors(render_numpy(fs, spp=spp), target, pattern.shape)
+    fs.set("pattern", 1 - pattern)
+    flipped = cell_errors(render_numpy(fs, spp=spp), target, pattern.shape)
+    fs.set("pattern", pattern)
+    return float(np.mean(flipped > now))
+
+
+def _rejected(report: dict, reason: str, code: str, timings: dict, t0: float) -> Capture:
+    timings["total"] = time.perf_counter() - t0
+    report.update(status="rejected", reason=reason, code=code,
+                  timings_s={k: round(v, 3) for k, v in timings.items()})
+    return Capture(report=report)
+
+
+def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), *,
+            progress: Callable[[str], None] | None = None) -> Capture:
+    """Run the whole pipeline on one photo. Bad photos give status ``rejected``, not errors."""
+    from .estimate.cells import cell_canvas
+    from .estimate.preestimate import pre_estimate
+    from .estimate.weave_name import weave_name
+    from .fit.joint import fit
+    from .model.render import render_numpy
+    from .model.scene import View, build_scene
+    from .noise import fit_noise
+    from .photo import load_photo
+    from .prepare import Rejected, prepare_photo
+
+    say = progress or (lambda _msg: None)
+    t0 = time.perf_counter()
+    timings: dict[str, float] = {}
+    report: dict = {"format": REPORT_FORMAT, "input": {"path": str(photo_path)}, "status": "failed",
+                    "rectification": {"rotation_deg": 0.0, "homography": np.eye(3).tolist()},
+                    "grid": {"repeat_px": [0, 0], "pitch_px": [0, 0], "yarns": [0, 0]},
+                    "fit": {"psnr_db": 0.0, "iterations": 0}, "options": {
+                        "quality": options.quality, "light": options.light, "seed": options.seed,
+                        "budget_s": options.budget_s, "network": options.use_network}}
+
+    say("loading")
+    t = time.perf_counter()
+    try:
+        photo = load_photo(photo_path)
+    except PhotoError as exc:
+        return _rejected(report, str(exc), "unreadable", timings, t0)
+    report["input"].update(sha256=photo.sha256, width=photo.width, height=photo.height,
+                           format=photo.source_format)
+    timings["load"] = time.perf_counter() - t
+
+    say("preparing (rectify, regularize, repeat, grid)")
+    t = time.perf_counter()
+    prepared = prepare_photo(photo.rgb)
+    timings["prepare"] = time.perf_counter() - t
+    if isinstance(prepared, Rejected):
+        report["checks"] = prepared.to_json()["checks"]
+        return _rejected(report, prepared.reason, prepared.code, timings, t0)
+    prep = prepared.to_json()
+    report["rectification"], report["grid"] = prep["rectification"], prep["grid"]
+    cells, _ = _repeat_cells(prepared, prepared.regularized.box)
+    cells = align_cells(prepared.regularized.image, cells)
+    shape = cells.shape
+    if options.pattern is not None and options.pattern.shape != shape:
+        raise wparams.ParamsError(f"the given pattern is {options.pattern.shape[0]}x{options.pattern.shape[1]} but "
+                                  f"the photo's repeat is {shape[0]} wefts x {shape[1]} warps", field="pattern")
+
+    say(f"pre-estimating a {shape[0]}x{shape[1]} repeat (pattern, colours, parameters)")
+    t = time.perf_counter()
+    if options.start_from is not None:
+        start = options.start_from
+        if start.shape != shape:
+            raise wparams.ParamsError(f"--start-from has a {start.shape[0]}x{start.shape[1]} pattern but the photo's "
+                                      f"repeat is {shape[0]}x{shape[1]}", field="pattern")
+        report["pre_estimation"] = {"parameters_from": "start_from"}
+    else:
+        pre = pre_estimate(prepared.regularized.image, cells, light=options.light, use_network=options.use_network)
+        start = pre.fabric
+        report["pre_estimation"] = pre.to_json()
+    if options.pattern is not None:
+        start = start.replace({"pattern": options.pattern})
+    timings["pre_estimate"] = time.perf_counter() - t
+
+    config = options.config
+    c = cell_px_for(config, shape)
+    target = cell_canvas(prepared.regularized.image, cells, c)
+    fixed = frozenset({"pattern"}) if options.pattern is not None else frozenset()
+    say(f"fitting ({options.quality}: up to {config.iterations} steps"
+        + (f", {options.budget_s:g} s budget" if options.budget_s else "") + ")")
+    t = time.perf_counter()
+    result = fit(target, start, config=config, light=options.light, seed=options.seed, budget_s=options.budget_s,
+                 fixed=fixed)
+    timings["fit"] = time.perf_counter() - t
+
+    t = time.perf_counter()
+    fs = build_scene(result.fabric, View(tiles=(1, 1), size=max(target.shape[:2]), spp=config.spp), light=options.light)
+    rendered = render_numpy(fs)
+    confidence = _pattern_confidence(fs, target, config.spp)
+    photo_canvas = cell_canvas(prepared.rectification.image, _shifted(cells, prepared.regularized.box), c)
+    noise = fit_noise(photo_canvas - rendered, pitch_px=float(c), seed=options.seed)
+    fabric = dataclasses.replace(result.fabric, noise=noise) if noise["gaussians"] else result.fabric
+    pitch = prepared.grid.pitch_px
+    timings["noise"] = time.perf_counter() - t
+    timings["total"] = time.perf_counter() - t0
+
+    report.update(status="ok", weave=weave_name(fabric.pattern))
+    report["fit"] = {
+        "psnr_db": round(psnr(rendered, target), 3), "iterations": result.iterations,
+        "pattern_confidence": round(confidence, 4), "mse": result.loss, "stopped": result.stopped,
+        "seconds": round(result.seconds, 3), "cell_px": c, "spp": config.spp, "moves": result.moves,
+        "pattern_fixed": options.pattern is not None,
+    }
+    report["modelled"] = {
+        "light_rig": options.light,
+        "transmission": "exit-point rays for the back light" if options.light in ("both", "back")
+        else "none: nothing lights the back",
+        "samples_per_pixel": f"{config.spp}: directional lights are exact at pixel centres",
+        "radii": "annealing moves (finite-difference gradients were 11x slower for a similar loss)",
+        "noise": f"{len(noise['gaussians'])} Gaussians over the residual spectrum",
+        "yarn_pitch_px": [round(float(v), 3) for v in pitch],
+    }
+    report["timings_s"] = {k: round(v, 3) for k, v in timings.items()}
+    error = np.abs(rendered - target) * 4.0
+    images = {"compare.png": np.concatenate([target, rendered, error], axis=1),
+              "rectified.png": prepared.rectification.image, "grid.png": prepared.grid_overlay()}
+    return Capture(report=report, fabric=fabric, images=images, history=result.history)
+
+
+def _shifted(cells, box):
+    """``cells`` (box pixels) in the rectified image's pixels."""
+    from .estimate.cells import CellGrid
+
+    return CellGrid(rows=cells.rows + box[0], cols=cells.cols + box[1])
+
+
+def loss_plot(history: list[float], *, size: tuple[int, int] = (240, 400)) -> np.ndarray:
+    """A plot of log10(MSE) per step (for loss.png), linear RGB, drawn with OpenCV."""
+    import cv2
+
+    h, w = size
+    img = np.full((h, w, 3), 255, np.uint8)
+    m = 30
+    cv2.rectangle(img, (m, 10), (w - 10, h - m), (0, 0, 0), 1)
+    if len(history) >= 2:
+        y = np.log10(np.maximum(np.asarray(history, dtype=np.float64), 1e-12))
+        lo, hi = float(y.min()), float(y.max())
+        span = hi - lo if hi > lo else 1.0
+        xs = m + (np.arange(y.size) / (y.size - 1)) * (w - 10 - m)
+        ys = (h - m) - (y - lo) / span * (h - m - 10)
+        cv2.polylines(img, [np.stack([xs, ys], 1).astype(np.int32)], False, (200, 60, 20), 2, cv2.LINE_AA)
+        cv2.putText(img, f"{10 ** hi:.2e}", (m + 4, 24), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (0, 0, 0), 1, cv2.LINE_AA)
+        cv2.putText(img, f"{10 ** lo:.2e}", (m + 4, h - m - 6), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (0, 0, 0), 1, cv2.LINE_AA)
+    cv2.putText(img, "MSE per step (log)", (m, h - 8), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 0, 0), 1, cv2.LINE_AA)
+    from .photo import srgb_to_linear
+
+    return srgb_to_linear(img.astype(np.float32) / 255.0)
+
+
+def _enlarged(image: np.ndarray, min_height: int = 256) -> np.ndarray:
+    k = max(1, int(np.ceil(min_height / max(1, image.shape[0]))))
+    return np.repeat(np.repeat(image, k, axis=0), k, axis=1) if k > 1 else image
+
+
+def write_capture(cap: Capture, out_dir: Path) -> None:
+    """Write a capture's outputs into ``out_dir`` (created), each atomically, report.json last.
+    A rejected photo gets only report.json."""
+    from .photo import save_png
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    if cap.fabric is not None:
+        wparams.save(cap.fabric, out_dir / "params.json")
+        for name, image in cap.images.items():
+            save_png(out_dir / name, _enlarged(image) if name == "compare.png" else image)
+        save_png(out_dir / "loss.png", loss_plot(cap.history))
+    atomic_write_text(out_dir / "report.json", json.dumps(cap.report, indent=1) + "\n")
