@@ -19,6 +19,7 @@ from weavecap.errors import WeavecapError
 
 #: command name → "module:function" (modules under weavecap.cli)
 COMMANDS = {
+    "fit": "weavecap.cli.fit:fit",
     "synth": "weavecap.cli.synth:synth",
     "prepare": "weavecap.cli.prepare:prepare",
     "doctor": "weavecap.cli.doctor:doctor",
@@ -68,6 +69,7 @@ def cli() -> None:
 
     \b
     Examples:
+      weavecap fit swatch.jpg -o swatch/
       weavecap synth fixtures/params/twill_2_1.json -o twill.png --tiles 4x4
       weavecap prepare photo.jpg -o prepared/
       weavecap doctor

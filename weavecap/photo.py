@@ -601,6 +601,11 @@ def _check_size(width: int, height: int, max_pixels: int) -> None:
 # --------------------------------------------------------------------------------------------
 
 
+def file_sha256(path: str | os.PathLike) -> str:
+    """SHA-256 (hex) of a file's bytes: the identity of a photo in reports and resumed batches."""
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
 def load_photo(path: str | os.PathLike, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> Photo:
     """Read a photo into linear float32 RGB.
 

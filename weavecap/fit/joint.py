@@ -3,9 +3,13 @@
 The loss is the MSE between the render of one repeat and the photo's repeat (§6). Continuous
 parameters take Adam steps on their gradients (reverse-mode AD through the forward model) plus
 the range barrier of Eq. 5, and are clamped to Table 1 after every step. Between gradient
-steps, simulated annealing proposes a discrete move — flip one pattern cell, change the number
-of plies or fibres, or (``radius_mode="anneal"``) nudge a yarn radius — and accepts it by the
-Metropolis rule at a temperature that starts at T₀ = 100 and decays by 0.98 per proposal.
+steps, simulated annealing proposes a discrete move — change the number of plies or fibres, or
+(``radius_mode="anneal"``) nudge a yarn radius — and accepts it by the Metropolis rule at a
+temperature that starts at T₀ = 100 and decays by 0.98 per proposal (§6.2). The pattern is
+re-annealed at T = 0 with §5.1's batched sweeps (one complement render, then batches of the
+most promising flips) at fixed points of the fit, once the continuous values have settled —
+a flip judged against badly fitted colours is a coin toss. The radii, by default, follow a
+greedy pattern search (:class:`_RadiusSearch`).
 
 Adam works on each parameter scaled to its range ([0, 1]), so one learning rate fits all.
 Eq. 5 as printed penalises values *inside* the range; the intent, and what is used here, is
@@ -22,7 +26,6 @@ from typing import Callable
 import numpy as np
 import torch
 
-from ..estimate.cells import cell_errors
 from ..model.render import mse_and_gradients, render_numpy
 from ..model.scene import GEOMETRY_KEYS, FabricScene, View, build_scene
 from ..params import CONTINUOUS_KEYS, FIT_RANGES, Fabric
@@ -106,21 +109,11 @@ class _Annealer:
         self.fs, self.config, self.rng = fs, config, rng
         self.temperature = config.anneal_t0
         self.kinds = [k for k in ("plies", "fibers") if k not in fixed]
-        if config.pattern_moves and "pattern" not in fixed and fs.fabric.pattern.size > 1:
-            self.kinds.append("pattern")
         if radius_mode == "anneal":
             self.kinds += [k for k in GEOMETRY_KEYS if k not in fixed]
         self.moves = {k: [0, 0] for k in self.kinds}
 
-    def _propose(self, kind: str, errors: np.ndarray):
-        fabric = self.fs.fabric
-        if kind == "pattern":
-            # flip a cell chosen in proportion to its share of the error: wrong cells stand out
-            pattern = fabric.pattern.copy()
-            weights = errors.ravel() + 1e-12
-            i, j = np.unravel_index(self.rng.choice(weights.size, p=weights / weights.sum()), pattern.shape)
-            pattern[i, j] ^= 1
-            return pattern
+    def _propose(self, kind: str):
         lo, hi = FIT_RANGES[kind]
         if kind in DISCRETE_STEPS:
             current = int(round(float(np.asarray(self.fs.values[kind]).ravel()[0])))
@@ -131,8 +124,6 @@ class _Annealer:
         return float(np.clip(current + self.rng.choice([-1, 1]) * self.config.radius_step, lo, hi))
 
     def _current(self, kind: str):
-        if kind == "pattern":
-            return self.fs.fabric.pattern.copy()
         if kind in DISCRETE_STEPS:
             return float(np.asarray(self.fs.values[kind]).ravel()[0])
         return float(self.fs.fabric.get(kind))
@@ -143,8 +134,7 @@ class _Annealer:
         if not self.kinds:
             return loss
         kind = self.kinds[self.rng.integers(len(self.kinds))]
-        errors = cell_errors(image, target, self.fs.fabric.shape, trim=0.0) if kind == "pattern" else None
-        old, new = self._current(kind), self._propose(kind, errors)
+        old, new = self._current(kind), self._propose(kind)
         self.moves[kind][0] += 1
         self.fs.set(kind, new)
         new_loss = _mse(render_numpy(self.fs, spp=spp), target)
@@ -156,6 +146,21 @@ class _Annealer:
             return new_loss
         self.fs.set(kind, old)
         return loss
+
+
+def _pattern_sweep(fs: FabricScene, target: np.ndarray, *, light: str, spp: int) -> dict:
+    """Re-run §5.1's batched T = 0 pattern annealing with the fit's current values, and keep
+    its pattern (it only accepts flips that lower the error)."""
+    from ..estimate.forward import RepeatRenderer
+    from ..estimate.pattern import anneal_pattern
+
+    before = fs.fabric.pattern.copy()
+    c = target.shape[0] // before.shape[0]
+    renderer = RepeatRenderer(fs.to_fabric(), cell_px=c, light=light, spp=spp)
+    result = anneal_pattern(target, renderer, start=before, match_colour=False)
+    if not np.array_equal(result.pattern, before):
+        fs.set("pattern", result.pattern)
+    return {"changed": int(np.sum(result.pattern != before)), "renders": result.renders}
 
 
 class _RadiusSearch:
@@ -229,6 +234,9 @@ def fit(target: np.ndarray, start: Fabric, *, config: FitConfig = FitConfig(), l
     adam = torch.optim.Adam([unit], lr=config.learning_rate)
     annealer = _Annealer(fs, config, np.random.default_rng(seed), radius_mode=radius_mode, fixed=fixed)
     search = _RadiusSearch(fs, config, free_radii if radius_mode == "search" else [])
+    pattern_free = config.pattern_moves and "pattern" not in fixed and start.pattern.size > 1
+    sweep_steps = {max(1, int(f * config.iterations)) for f in config.pattern_sweeps} if pattern_free else set()
+    sweeps: list[dict] = []
 
     best_loss, best_fabric, history, stopped = math.inf, start, [], "iterations"
     step = 0
@@ -246,6 +254,8 @@ def fit(target: np.ndarray, start: Fabric, *, config: FitConfig = FitConfig(), l
         vec.write(fs, unit.detach().numpy())
         if step % config.anneal_every == 0:
             annealer.step(target, render_numpy(fs, spp=config.spp), config.spp)
+        if step in sweep_steps:
+            sweeps.append(_pattern_sweep(fs, target, light=light, spp=config.spp))
         if search.keys and step % config.radius_every == 1:
             search.step(target, _mse(render_numpy(fs, spp=config.spp), target), config.spp)
         if progress is not None:
@@ -261,5 +271,8 @@ def fit(target: np.ndarray, start: Fabric, *, config: FitConfig = FitConfig(), l
     if final < best_loss:
         best_loss, best_fabric = final, fs.to_fabric()
     moves = {k: {"proposed": v[0], "accepted": v[1]} for k, v in {**annealer.moves, **search.moves}.items()}
+    if sweeps:
+        moves["pattern"] = {"sweeps": len(sweeps), "cells_changed": sum(s["changed"] for s in sweeps),
+                            "renders": sum(s["renders"] for s in sweeps)}
     return FitResult(fabric=best_fabric, loss=best_loss, history=history, iterations=step,
                      seconds=time.perf_counter() - t0, stopped=stopped, moves=moves)

@@ -150,7 +150,9 @@ def geometry_pass(fs: FabricScene, *, spp: int, seed: int) -> GBuffer:
 def _broadcast(value, size: int):
     """``value`` (width 1) as an array of ``size`` entries, by a gather: its gradient then comes
     back through one scatter-add instead of a reduction per use (one backward kernel, not
-    hundreds)."""
+    hundreds). A value already ``size`` wide (a per-sample gradient leaf) passes through."""
+    if dr.width(value) == size:
+        return value
     return dr.gather(type(value), value, dr.zeros(mi.UInt32, size))
 
 
@@ -249,19 +251,28 @@ def mse_and_gradients(fs: FabricScene, target: np.ndarray, keys, *, seed: int = 
     """
     keys = list(keys)
     ad_keys = [k for k in keys if k not in GEOMETRY_KEYS]
-    for key in ad_keys:
-        dr.enable_grad(fs.values[key])
+    target = np.asarray(target, dtype=np.float32)
+    spp_ = int(spp or fs.view.spp)
+    size = gbuffer(fs, spp=spp_, seed=seed).size
+    # Each parameter becomes a per-sample leaf: the backward pass is then element-wise and the
+    # per-sample gradients are summed here in float64, in a fixed order. (Summing in Dr.Jit
+    # uses threaded atomics whose order varies, and a fit must be the same for the same seed.)
+    saved = {key: fs.values[key] for key in ad_keys}
+    leaves = {key: _broadcast(dr.detach(value), size) for key, value in saved.items()}
     try:
-        image = render(fs, seed=seed, spp=spp)
-        loss = _mse(image, mi.TensorXf(np.asarray(target, dtype=np.float32)))
+        fs.values.update(leaves)
+        for leaf in leaves.values():
+            dr.enable_grad(leaf)
+        image = render(fs, seed=seed, spp=spp_)
         if ad_keys:
-            dr.backward(loss)
-        grads = {key: np.array(dr.ravel(dr.grad(fs.values[key])), dtype=np.float64) for key in ad_keys}
-        loss_value = float(np.asarray(dr.detach(loss)).ravel()[0])
+            dr.backward(_mse(image, mi.TensorXf(target)))
+        adjoints = {key: dr.grad(leaf) for key, leaf in leaves.items()}
+        dr.eval(adjoints)  # one backward kernel for all of them
+        grads = {key: np.array(adj, dtype=np.float64).reshape(-1, size).sum(axis=1) for key, adj in adjoints.items()}
         image_np = np.array(dr.detach(image), dtype=np.float32)
     finally:
-        for key in ad_keys:
-            dr.disable_grad(fs.values[key])
+        fs.values.update(saved)
+    loss_value = float(np.mean(np.square(image_np.astype(np.float64) - target)))
     for key in keys:
         if key in GEOMETRY_KEYS:
             grads[key] = np.array([radius_gradient(fs, target, key, seed=seed, spp=spp)])

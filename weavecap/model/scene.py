@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import InputError
-from ..params import Fabric
+from ..params import FIT_RANGES, Fabric
 from . import bysdf as _bysdf
 from .geometry import PITCH, TubeMesh, crossover_height, fabric_meshes
 
@@ -226,6 +226,10 @@ class FabricScene:
             values[key] = tuple(flat.tolist()) if isinstance(value, mi.Color3f) else float(flat[0])
         for key in ("plies", "fibers"):
             values[key] = int(round(values[key]))
+        for key, (lo, hi) in FIT_RANGES.items():  # the store is float32: 0.8 reads 0.80000001
+            if key in values:
+                values[key] = tuple(float(np.clip(v, lo, hi)) for v in values[key]) \
+                    if isinstance(values[key], tuple) else type(values[key])(np.clip(values[key], lo, hi))
         return self.fabric.replace(values)
 
     def shading(self) -> "_bysdf.Shading":
