@@ -28,6 +28,9 @@ COMMANDS = {
 }
 
 
+INTERRUPTED = "weavecap: interrupted; finished outputs are kept, partial ones were not written (run again to resume)"
+
+
 class UserError(click.ClickException):
     """A :class:`WeavecapError` shown to the user, keeping its exit status."""
 
@@ -60,6 +63,9 @@ class WeavecapGroup(click.Group):
             return super().invoke(ctx)
         except WeavecapError as exc:
             raise UserError(exc) from exc
+        except KeyboardInterrupt:
+            click.echo(INTERRUPTED, err=True)
+            raise click.exceptions.Exit(130) from None
 
 
 @click.group(cls=WeavecapGroup, context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
@@ -86,7 +92,7 @@ def main(argv: list[str] | None = None) -> None:
     except SystemExit:
         raise
     except KeyboardInterrupt:
-        click.echo("weavecap: interrupted; finished outputs are kept, partial ones were not written", err=True)
+        click.echo(INTERRUPTED, err=True)
         sys.exit(130)
     except Exception as exc:  # noqa: BLE001 - the last line of defence: no tracebacks for users
         if os.environ.get("WEAVECAP_DEBUG"):

@@ -119,15 +119,35 @@ def align_cells(image: np.ndarray, cells):
     return best
 
 
-def _pattern_confidence(fs, target: np.ndarray, spp: int) -> float:
+def photo_blur(fabric: wparams.Fabric, target: np.ndarray, *, light: str, spp: int) -> float:
+    """σ (canvas px) of the Gaussian that makes a render of ``fabric`` most like ``target``.
+
+    The regularized photo is smoothed by §4.2's Gaussian (σ = pitch / 16), by resampling to
+    the canvas and by the camera itself; how much in all varies from photo to photo, and the
+    MSE is very sensitive to it (on a 16-px canvas: 0.0033 at σ = 1 px, 0.0025 at 1.5, 0.0053
+    at 2). It is measured once, on the pre-estimate, by a bounded 1-D search.
+    """
+    from scipy.optimize import minimize_scalar
+
+    from .model.render import blurred_mse, render_numpy
+    from .model.scene import View, build_scene
+
+    c = target.shape[0] / fabric.shape[0]
+    image = render_numpy(build_scene(fabric, View(tiles=(1, 1), size=max(target.shape[:2]), spp=spp), light=light))
+    best = minimize_scalar(lambda s: blurred_mse(image, target, s), bounds=(0.0, c / 4), method="bounded",
+                           options={"xatol": 0.02})
+    return float(best.x)
+
+
+def _pattern_confidence(fs, target: np.ndarray, spp: int, blur_px: float) -> float:
     """Fraction of cells whose fitted state explains the photo better than its opposite."""
     from .estimate.cells import cell_errors
-    from .model.render import render_numpy
+    from .model.render import blur, render_numpy
 
     pattern = fs.fabric.pattern.copy()
-    now = cell_errors(render_numpy(fs, spp=spp), target, pattern.shape)
+    now = cell_errors(blur(render_numpy(fs, spp=spp), blur_px), target, pattern.shape)
     fs.set("pattern", 1 - pattern)
-    flipped = cell_errors(render_numpy(fs, spp=spp), target, pattern.shape)
+    flipped = cell_errors(blur(render_numpy(fs, spp=spp), blur_px), target, pattern.shape)
     fs.set("pattern", pattern)
     return float(np.mean(flipped > now))
 
@@ -146,10 +166,10 @@ def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), 
     from .estimate.preestimate import pre_estimate
     from .estimate.weave_name import weave_name
     from .fit.joint import fit
-    from .model.render import render_numpy
+    from .model.render import blur, render_numpy
     from .model.scene import View, build_scene
     from .noise import fit_noise
-    from .photo import load_photo
+    from .photo import file_sha256, load_photo
     from .prepare import Rejected, prepare_photo
 
     say = progress or (lambda _msg: None)
@@ -167,6 +187,10 @@ def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), 
     try:
         photo = load_photo(photo_path)
     except PhotoError as exc:
+        try:  # identify even an unreadable photo, so that a resumed batch knows it was done
+            report["input"].update(sha256=file_sha256(photo_path), width=0, height=0)
+        except OSError:
+            pass
         return _rejected(report, str(exc), "unreadable", timings, t0)
     report["input"].update(sha256=photo.sha256, width=photo.width, height=photo.height,
                            format=photo.source_format)
@@ -211,14 +235,15 @@ def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), 
     say(f"fitting ({options.quality}: up to {config.iterations} steps"
         + (f", {options.budget_s:g} s budget" if options.budget_s else "") + ")")
     t = time.perf_counter()
+    blur_px = photo_blur(start, target, light=options.light, spp=config.spp)
     result = fit(target, start, config=config, light=options.light, seed=options.seed, budget_s=options.budget_s,
-                 fixed=fixed)
+                 fixed=fixed, blur_px=blur_px)
     timings["fit"] = time.perf_counter() - t
 
     t = time.perf_counter()
     fs = build_scene(result.fabric, View(tiles=(1, 1), size=max(target.shape[:2]), spp=config.spp), light=options.light)
-    rendered = render_numpy(fs)
-    confidence = _pattern_confidence(fs, target, config.spp)
+    rendered = blur(render_numpy(fs), blur_px)
+    confidence = _pattern_confidence(fs, target, config.spp, blur_px)
     photo_canvas = cell_canvas(prepared.rectification.image, _shifted(cells, prepared.regularized.box), c)
     noise = fit_noise(photo_canvas - rendered, pitch_px=float(c), seed=options.seed)
     fabric = dataclasses.replace(result.fabric, noise=noise) if noise["gaussians"] else result.fabric
@@ -238,7 +263,8 @@ def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), 
         "transmission": "exit-point rays for the back light" if options.light in ("both", "back")
         else "none: nothing lights the back",
         "samples_per_pixel": f"{config.spp}: directional lights are exact at pixel centres",
-        "radii": "annealing moves (finite-difference gradients were 11x slower for a similar loss)",
+        "radii": "greedy pattern search (finite-difference gradients were 11x slower for a similar loss)",
+        "photo_blur_px": round(blur_px, 3),
         "noise": f"{len(noise['gaussians'])} Gaussians over the residual spectrum",
         "yarn_pitch_px": [round(float(v), 3) for v in pitch],
     }

@@ -26,7 +26,7 @@ from typing import Callable
 import numpy as np
 import torch
 
-from ..model.render import mse_and_gradients, render_numpy
+from ..model.render import blurred_mse, mse_and_gradients, render_numpy
 from ..model.scene import GEOMETRY_KEYS, FabricScene, View, build_scene
 from ..params import CONTINUOUS_KEYS, FIT_RANGES, Fabric
 from .config import FitConfig
@@ -97,10 +97,6 @@ def barrier(raw: np.ndarray, lo: np.ndarray, hi: np.ndarray, lam: float) -> tupl
     return float(lam * np.sum(below**2 + above**2)), lam * 2.0 * (above - below)
 
 
-def _mse(image: np.ndarray, target: np.ndarray) -> float:
-    return float(np.mean((image.astype(np.float64) - target) ** 2))
-
-
 class _Annealer:
     """Discrete proposals and the Metropolis rule of §6.2."""
 
@@ -128,16 +124,17 @@ class _Annealer:
             return float(np.asarray(self.fs.values[kind]).ravel()[0])
         return float(self.fs.fabric.get(kind))
 
-    def step(self, target: np.ndarray, image: np.ndarray, spp: int) -> float:
-        """Propose one move from the state rendered as ``image``; return the loss kept."""
-        loss = _mse(image, target)
+    def step(self, measure: Callable[[], float]) -> float:
+        """Propose one move; ``measure()`` is the loss of the scene's current state. Returns the
+        loss of the state kept."""
+        loss = measure()
         if not self.kinds:
             return loss
         kind = self.kinds[self.rng.integers(len(self.kinds))]
         old, new = self._current(kind), self._propose(kind)
         self.moves[kind][0] += 1
         self.fs.set(kind, new)
-        new_loss = _mse(render_numpy(self.fs, spp=spp), target)
+        new_loss = measure()
         rise = 1e4 * (new_loss - loss) / max(loss, 1e-12)  # basis points of the loss
         accept = rise <= 0 or self.rng.random() < math.exp(-rise / max(self.temperature, 1e-9))
         self.temperature *= self.config.anneal_decay
@@ -148,7 +145,7 @@ class _Annealer:
         return loss
 
 
-def _pattern_sweep(fs: FabricScene, target: np.ndarray, *, light: str, spp: int) -> dict:
+def _pattern_sweep(fs: FabricScene, target: np.ndarray, *, light: str, spp: int, blur_px: float) -> dict:
     """Re-run §5.1's batched T = 0 pattern annealing with the fit's current values, and keep
     its pattern (it only accepts flips that lower the error)."""
     from ..estimate.forward import RepeatRenderer
@@ -156,7 +153,7 @@ def _pattern_sweep(fs: FabricScene, target: np.ndarray, *, light: str, spp: int)
 
     before = fs.fabric.pattern.copy()
     c = target.shape[0] // before.shape[0]
-    renderer = RepeatRenderer(fs.to_fabric(), cell_px=c, light=light, spp=spp)
+    renderer = RepeatRenderer(fs.to_fabric(), cell_px=c, light=light, spp=spp, blur_cells=blur_px / c)
     result = anneal_pattern(target, renderer, start=before, match_colour=False)
     if not np.array_equal(result.pattern, before):
         fs.set("pattern", result.pattern)
@@ -173,7 +170,9 @@ class _RadiusSearch:
         self.min_step = config.radius_min_step
         self.moves = {k: [0, 0] for k in keys}
 
-    def step(self, target: np.ndarray, loss: float, spp: int) -> float:
+    def step(self, measure: Callable[[], float]) -> float:
+        """One round over the radii; ``measure()`` is the loss of the scene's current state."""
+        loss = measure()
         for key in self.keys:
             delta = self.step_size[key]
             if delta < self.min_step:
@@ -186,7 +185,7 @@ class _RadiusSearch:
                     continue
                 self.moves[key][0] += 1
                 self.fs.set(key, r)
-                trial = _mse(render_numpy(self.fs, spp=spp), target)
+                trial = measure()
                 if trial < best_loss:
                     best_r, best_loss = r, trial
             if best_r != r0:
@@ -199,7 +198,7 @@ class _RadiusSearch:
 
 
 def fit(target: np.ndarray, start: Fabric, *, config: FitConfig = FitConfig(), light: str = "both",
-        seed: int = 0, budget_s: float | None = None, fixed: frozenset[str] = frozenset(),
+        seed: int = 0, budget_s: float | None = None, fixed: frozenset[str] = frozenset(), blur_px: float = 0.0,
         radius_mode: str = "search", progress: Callable[[int, int, float], None] | None = None) -> FitResult:
     """Fit ``start`` to ``target``, one repeat of the photo (§6).
 
@@ -210,6 +209,8 @@ def fit(target: np.ndarray, start: Fabric, *, config: FitConfig = FitConfig(), l
     start : the pre-estimate (pattern, colours, initializer's values)
     config : hyper-parameters (see :data:`weavecap.fit.config.PRESETS`)
     light : the light rig (§6.4)
+    blur_px : σ (canvas px) of the smoothing the target went through (§4.2's regularization);
+        renders are blurred alike before they are compared (:func:`weavecap.model.render.blur`)
     seed : seeds the annealing; the same seed gives the same result
     budget_s : stop after this many seconds (the best state so far is returned)
     fixed : names not to fit: ``"pattern"``, ``"plies"``, ``"fibers"``, radii or continuous keys
@@ -230,6 +231,10 @@ def fit(target: np.ndarray, start: Fabric, *, config: FitConfig = FitConfig(), l
     keys = [k for k in CONTINUOUS_KEYS if k not in fixed and k not in fs.textures
             and (k not in GEOMETRY_KEYS or k in geometry)]
     vec = _Vector(fs, keys)
+
+    def measure() -> float:
+        return blurred_mse(render_numpy(fs, spp=config.spp), target, blur_px)
+
     unit = torch.tensor(np.clip(vec.read(start), 0.0, 1.0), dtype=torch.float64, requires_grad=True)
     adam = torch.optim.Adam([unit], lr=config.learning_rate)
     annealer = _Annealer(fs, config, np.random.default_rng(seed), radius_mode=radius_mode, fixed=fixed)
@@ -241,7 +246,7 @@ def fit(target: np.ndarray, start: Fabric, *, config: FitConfig = FitConfig(), l
     best_loss, best_fabric, history, stopped = math.inf, start, [], "iterations"
     step = 0
     for step in range(1, config.iterations + 1):
-        loss, grads, _ = mse_and_gradients(fs, target, keys, spp=config.spp)
+        loss, grads, _ = mse_and_gradients(fs, target, keys, spp=config.spp, blur_px=blur_px)
         if loss < best_loss:
             best_loss, best_fabric = loss, fs.to_fabric()
         history.append(loss)
@@ -253,11 +258,11 @@ def fit(target: np.ndarray, start: Fabric, *, config: FitConfig = FitConfig(), l
             unit.clamp_(0.0, 1.0)
         vec.write(fs, unit.detach().numpy())
         if step % config.anneal_every == 0:
-            annealer.step(target, render_numpy(fs, spp=config.spp), config.spp)
+            annealer.step(measure)
         if step in sweep_steps:
-            sweeps.append(_pattern_sweep(fs, target, light=light, spp=config.spp))
+            sweeps.append(_pattern_sweep(fs, target, light=light, spp=config.spp, blur_px=blur_px))
         if search.keys and step % config.radius_every == 1:
-            search.step(target, _mse(render_numpy(fs, spp=config.spp), target), config.spp)
+            search.step(measure)
         if progress is not None:
             progress(step, config.iterations, loss)
         if budget_s is not None and time.perf_counter() - t0 > budget_s:
@@ -267,7 +272,7 @@ def fit(target: np.ndarray, start: Fabric, *, config: FitConfig = FitConfig(), l
         if len(history) > window and min(history[-window:]) > min(history[:-window]) * (1 - config.converge_tol):
             stopped = "converged"
             break
-    final = _mse(render_numpy(fs, spp=config.spp), target)
+    final = measure()
     if final < best_loss:
         best_loss, best_fabric = final, fs.to_fabric()
     moves = {k: {"proposed": v[0], "accepted": v[1]} for k, v in {**annealer.moves, **search.moves}.items()}

@@ -21,6 +21,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.ndimage import gaussian_filter
 
 from . import bysdf as _bysdf
 from .geometry import PITCH
@@ -214,40 +215,49 @@ def render_numpy(fs: FabricScene, *, seed: int = 0, spp: int | None = None) -> n
         return np.array(render(fs, seed=seed, spp=spp), dtype=np.float32)
 
 
-def _mse(image, target):
-    return dr.mean(dr.square(image - target), axis=None)
+def blur(image: np.ndarray, sigma_px: float) -> np.ndarray:
+    """A Gaussian blur of a one-repeat image (H, W, 3) of σ ``sigma_px``, wrapping around (the
+    repeat tiles): what §4.2's regularization does to the photo a render is compared with."""
+    if sigma_px <= 0:
+        return image
+    return gaussian_filter(image, (sigma_px, sigma_px, 0), mode="wrap")
+
+
+def blurred_mse(image: np.ndarray, target: np.ndarray, blur_px: float = 0.0) -> float:
+    """MSE (float64) between ``image`` blurred by :func:`blur` and ``target``, both (H, W, 3)."""
+    return float(np.mean(np.square(blur(image, blur_px).astype(np.float64) - target)))
 
 
 def radius_gradient(fs: FabricScene, target: np.ndarray, key: str, *, seed: int = 0, spp: int | None = None,
-                    step: float = 0.02) -> float:
+                    blur_px: float = 0.0, step: float = 0.02) -> float:
     """d MSE / d radius (``warp.radius`` or ``weft.radius``) by a central finite difference of
     ``step`` world units; the geometry is rebuilt at both ends and restored. Ray-cast geometry
     has no smooth derivative at the silhouettes that a radius mostly moves, so a difference
     over a small step is both simpler and more faithful here than edge-sampling AD."""
-    target_t = mi.TensorXf(np.asarray(target, dtype=np.float32))
     r0 = float(fs.fabric.get(key))
     lo, hi = FIT_RANGES[key]
     a, b = max(lo, r0 - step), min(hi, r0 + step)
     losses = []
-    with dr.suspend_grad():
-        for r in (a, b):
-            fs.set(key, r)
-            losses.append(float(np.asarray(_mse(render(fs, seed=seed, spp=spp), target_t)).ravel()[0]))
+    for r in (a, b):
+        fs.set(key, r)
+        losses.append(blurred_mse(render_numpy(fs, seed=seed, spp=spp), target, blur_px))
     fs.set(key, r0)
     return (losses[1] - losses[0]) / (b - a)
 
 
 def mse_and_gradients(fs: FabricScene, target: np.ndarray, keys, *, seed: int = 0,
-                      spp: int | None = None) -> tuple[float, dict[str, np.ndarray], np.ndarray]:
-    """MSE between a render and ``target`` (H, W, 3), and its gradient for each dotted key of
-    :data:`weavecap.params.FIT_RANGES` in ``keys`` (reverse-mode AD; radii by
-    :func:`radius_gradient`).
+                      spp: int | None = None, blur_px: float = 0.0) -> tuple[float, dict[str, np.ndarray], np.ndarray]:
+    """MSE between a render, blurred by :func:`blur` (σ ``blur_px``), and ``target``
+    (H, W, 3), and its gradient for each dotted key of :data:`weavecap.params.FIT_RANGES` in
+    ``keys`` (reverse-mode AD; radii by :func:`radius_gradient`). The blur is linear and
+    symmetric, so the loss's adjoint image is the blurred residual, and reverse mode runs from
+    it (``dr.backward`` of Σ image · adjoint).
 
     Returns
     -------
     loss : float
     grads : dict key → float64 array (shape (1,) for scalars, (3,) for colours)
-    image : (H, W, 3) float32, the render
+    image : (H, W, 3) float32, the render (not blurred)
     """
     keys = list(keys)
     ad_keys = [k for k in keys if k not in GEOMETRY_KEYS]
@@ -264,16 +274,18 @@ def mse_and_gradients(fs: FabricScene, target: np.ndarray, keys, *, seed: int = 
         for leaf in leaves.values():
             dr.enable_grad(leaf)
         image = render(fs, seed=seed, spp=spp_)
+        image_np = np.array(dr.detach(image), dtype=np.float32)
+        residual = blur(image_np, blur_px).astype(np.float64) - target
         if ad_keys:
-            dr.backward(_mse(image, mi.TensorXf(target)))
+            adjoint = blur(residual * (2.0 / residual.size), blur_px).astype(np.float32)
+            dr.backward(dr.sum(image * mi.TensorXf(adjoint), axis=None))
         adjoints = {key: dr.grad(leaf) for key, leaf in leaves.items()}
         dr.eval(adjoints)  # one backward kernel for all of them
         grads = {key: np.array(adj, dtype=np.float64).reshape(-1, size).sum(axis=1) for key, adj in adjoints.items()}
-        image_np = np.array(dr.detach(image), dtype=np.float32)
     finally:
         fs.values.update(saved)
-    loss_value = float(np.mean(np.square(image_np.astype(np.float64) - target)))
+    loss_value = float(np.mean(np.square(residual)))
     for key in keys:
         if key in GEOMETRY_KEYS:
-            grads[key] = np.array([radius_gradient(fs, target, key, seed=seed, spp=spp)])
+            grads[key] = np.array([radius_gradient(fs, target, key, seed=seed, spp=spp, blur_px=blur_px)])
     return loss_value, {key: grads[key] for key in keys}, image_np

@@ -1,0 +1,145 @@
+"""``weavecap fit`` as a user runs it: outputs, batches with a bad photo, resuming, --force."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import jsonschema
+import pytest
+from click.testing import CliRunner
+
+from weavecap.cli.main import cli
+
+ROOT = Path(__file__).resolve().parents[1]
+PHOTOS = ROOT / "fixtures" / "photos"
+CONTRACTS = ROOT.parent / "shared" / "contracts"
+SCHEMAS = ROOT / "weavecap" / "schemas"
+
+
+def run(*args):
+    return CliRunner().invoke(cli, ["fit", *map(str, args)], catch_exceptions=False)
+
+
+@pytest.fixture(scope="module")
+def batch(tmp_path_factory):
+    """Three photos, the middle one corrupt, fitted at draft quality."""
+    folder = tmp_path_factory.mktemp("batch")
+    photos = [folder / "a_twill.png", folder / "b_corrupt.png", folder / "c_plain.png"]
+    shutil.copy(PHOTOS / "twill_2_1.png", photos[0])
+    photos[1].write_bytes((PHOTOS / "plain.png").read_bytes()[:3000])  # truncated PNG
+    shutil.copy(PHOTOS / "plain.png", photos[2])
+    out = folder / "out"
+    result = run(*photos, "-o", out, "--quality", "draft", "--seed", "1")
+    return photos, out, result
+
+
+def test_batch_with_a_corrupt_photo_gives_two_results_three_lines_and_exit_3(batch):
+    photos, out, result = batch
+    assert result.exit_code == 3, result.output
+    lines = [json.loads(line) for line in (out / "summary.jsonl").read_text().splitlines()]
+    assert [line["photo"] for line in lines] == [str(p) for p in photos]
+    assert [line["status"] for line in lines] == ["ok", "rejected", "ok"]
+    assert "b_corrupt.png" in lines[1]["reason"]
+    for name in ("a_twill", "c_plain"):
+        for file in ("params.json", "report.json", "compare.png", "rectified.png", "grid.png", "loss.png"):
+            assert (out / name / file).is_file(), (name, file)
+    assert not (out / "b_corrupt" / "params.json").exists()
+    assert "Traceback" not in result.output
+
+
+def test_reports_and_params_follow_the_contracts(batch):
+    _, out, _ = batch
+    for schema_dir in (SCHEMAS, CONTRACTS):
+        if not schema_dir.is_dir():
+            continue
+        report_schema = json.loads((schema_dir / "report.schema.json").read_text())
+        params_schema = json.loads((schema_dir / "params.schema.json").read_text())
+        for name in ("a_twill", "c_plain"):
+            report = json.loads((out / name / "report.json").read_text())
+            jsonschema.validate(report, report_schema)
+            jsonschema.validate(json.loads((out / name / "params.json").read_text()), params_schema)
+            assert report["status"] == "ok" and report["timings_s"]["total"] > 0
+        assert json.loads((out / "b_corrupt" / "report.json").read_text())["status"] == "rejected"
+
+
+def test_the_fit_finds_the_plain_weave(batch):
+    _, out, _ = batch
+    report = json.loads((out / "c_plain" / "report.json").read_text())
+    assert report["grid"]["yarns"] == [2, 2]
+    assert report["weave"] == "plain"
+    assert report["fit"]["psnr_db"] > 20
+
+
+def test_running_again_resumes_without_redoing_finished_photos(batch):
+    """Finished photos — fitted or rejected — are skipped; the exit status still reports them."""
+    photos, out, _ = batch
+    before = {n: (out / n / "report.json").stat().st_mtime_ns for n in ("a_twill", "b_corrupt", "c_plain")}
+    result = run(*photos, "-o", out, "--quality", "draft", "--seed", "1")
+    assert result.exit_code == 3
+    assert "already done" in result.output
+    assert {n: (out / n / "report.json").stat().st_mtime_ns for n in before} == before
+    lines = [json.loads(line) for line in (out / "summary.jsonl").read_text().splitlines()]
+    assert [line["photo"] for line in lines] == [str(p) for p in photos]  # none listed twice
+
+
+def test_results_are_not_overwritten_without_force(tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "params.json").write_text("precious")
+    result = run(PHOTOS / "plain.png", "-o", out, "--quality", "draft")
+    assert result.exit_code == 2
+    assert "--force" in result.output
+    assert (out / "params.json").read_text() == "precious"
+
+
+@pytest.mark.parametrize("args, message", [
+    (["missing.jpg"], "no such photo"),
+    ([str(PHOTOS / "plain.png"), "--pattern", "nope.txt"], "cannot read the pattern file"),
+    ([str(PHOTOS / "plain.png"), "--quality", "ultra"], "ultra"),
+])
+def test_bad_arguments_exit_2_naming_the_problem(tmp_path, args, message):
+    result = run(*args, "-o", tmp_path / "out")
+    assert result.exit_code == 2
+    assert message in result.output
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_bad_pattern_file_names_the_fix(tmp_path):
+    pattern = tmp_path / "p.txt"
+    pattern.write_text("1 0\n0 2\n")
+    result = run(PHOTOS / "plain.png", "--pattern", pattern, "-o", tmp_path / "out")
+    assert result.exit_code == 2
+    assert "0 and 1" in result.output
+
+
+def test_an_interrupted_batch_resumes_where_it_stopped(batch, tmp_path, monkeypatch):
+    """Ctrl-C during the third photo; the next run does only what is left, listing each once."""
+    import weavecap.cli.fit as fit_cli
+
+    photos, out, _ = batch
+    work = tmp_path / "out"
+    shutil.copytree(out / "a_twill", work / "a_twill")  # finished before the interruption
+    bad = [tmp_path / "b_corrupt.png", tmp_path / "c_corrupt.png"]
+    for p in bad:
+        p.write_bytes(b"not an image")
+    todo = [photos[0], *bad]
+    real = fit_cli._run_one
+
+    def interrupted(photo, *args):
+        if photo.endswith("c_corrupt.png"):
+            raise KeyboardInterrupt
+        return real(photo, *args)
+
+    monkeypatch.setattr(fit_cli, "_run_one", interrupted)
+    result = run(*todo, "-o", work, "--quality", "draft")
+    assert result.exit_code == 130 and "interrupted" in result.output
+    assert [json.loads(x)["photo"] for x in (work / "summary.jsonl").read_text().splitlines()] == \
+        [str(p) for p in todo[:2]]
+    monkeypatch.setattr(fit_cli, "_run_one", real)
+    result = run(*todo, "-o", work, "--quality", "draft")
+    assert result.exit_code == 3
+    assert [json.loads(x)["photo"] for x in (work / "summary.jsonl").read_text().splitlines()] == \
+        [str(p) for p in todo]
+    assert json.loads((work / "c_corrupt" / "report.json").read_text())["status"] == "rejected"

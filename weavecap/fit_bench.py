@@ -1,0 +1,170 @@
+"""The speed–accuracy bench of ``weavecap fit`` (issue 5): synthetic photos with known truth,
+fitted at each quality preset.
+
+The bench set is fixed by a seed: fabrics over Table 1 (:mod:`weavecap.estimate.sampling`)
+with plain, twill, satin 5 and 8, basket and random patterns up to 8×8, rendered by the
+forward model at about one megapixel with the yarn pitch between 24 and 40 px, turned by up to
+±15°, seen by a perspective camera (mild), with sensor noise and saved as JPEG (quality 90).
+Each photo is captured end to end (:func:`weavecap.pipeline.capture`) and compared with its
+truth: the pattern up to a cyclic shift, the re-render's PSNR against the regularized photo,
+the error of every continuous parameter relative to its Table 1 range, plies and fibres.
+"""
+
+from __future__ import annotations
+
+import statistics
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .params import CONTINUOUS_KEYS, FIT_RANGES, Fabric
+
+PHOTO_SIDE_PX = 1024
+FAMILIES = ("plain", "twill", "satin5", "satin8", "basket", "random", "twill", "random")
+QUICK_FAMILIES = ("plain", "twill", "random")
+
+
+@dataclass(frozen=True)
+class BenchPhoto:
+    """A synthetic photo and its truth."""
+
+    path: Path
+    truth: Fabric
+    family: str
+    rotate_deg: float
+
+
+def make_photos(folder: Path, *, quick: bool, seed: int = 2026) -> list[BenchPhoto]:
+    """Render the bench set into ``folder`` (JPEG files)."""
+    import cv2
+
+    from .estimate.sampling import random_fabric, random_pattern, satin
+    from .model.render import render_numpy
+    from .model.scene import View, build_scene
+    from .photo import linear_to_srgb
+
+    rng = np.random.default_rng(seed)
+    photos = []
+    for k, family in enumerate(QUICK_FAMILIES if quick else FAMILIES):
+        if family.startswith("satin"):
+            n = int(family[-1])
+            pattern, family = satin(n, 2 if n == 5 else 3), f"satin {n}"
+        else:
+            _, pattern = random_pattern(rng, family=family, max_size=8)
+        truth = random_fabric(rng, pattern)
+        pitch = rng.uniform(24, 40)
+        n_e, n_a = pattern.shape
+        tiles = (max(2, round(PHOTO_SIDE_PX / (pitch * n_e))), max(2, round(PHOTO_SIDE_PX / (pitch * n_a))))
+        rotate = float(rng.uniform(-15, 15))
+        view = View(tiles=tiles, size=PHOTO_SIDE_PX, spp=4, rotate_deg=rotate, camera="perspective", fov_deg=12.0)
+        image = render_numpy(build_scene(truth, view), seed=k)
+        image = image + rng.normal(0.0, 0.01, image.shape).astype(np.float32)
+        srgb = (np.clip(linear_to_srgb(np.clip(image, 0, 1)), 0, 1) * 255 + 0.5).astype(np.uint8)
+        path = folder / f"{k:02d}_{family.replace(' ', '')}.jpg"
+        cv2.imwrite(str(path), cv2.cvtColor(srgb, cv2.COLOR_RGB2BGR), [cv2.IMWRITE_JPEG_QUALITY, 90])
+        photos.append(BenchPhoto(path=path, truth=truth, family=family, rotate_deg=rotate))
+    return photos
+
+
+def compare(fit: Fabric | None, truth: Fabric) -> dict:
+    """Errors of a fitted fabric against the truth (None: the photo was not fitted)."""
+    from .estimate.weave_name import equal_up_to_shift
+
+    if fit is None:
+        return {"fitted": False, "pattern_exact": False}
+    out = {"fitted": True, "pattern_exact": equal_up_to_shift(fit.pattern, truth.pattern),
+           "plies_ok": abs(fit.plies - truth.plies) <= 1, "fibers_ok": abs(fit.fibers - truth.fibers) <= 1,
+           "relative_error": {}}
+    for key in CONTINUOUS_KEYS:
+        lo, hi = FIT_RANGES[key]
+        diff = np.abs(np.subtract(np.asarray(fit.get(key), float), np.asarray(truth.get(key), float)))
+        out["relative_error"][key] = float(np.mean(diff) / (hi - lo))
+    return out
+
+
+def run(presets: tuple[str, ...], *, quick: bool, folder: Path | None = None, progress=print) -> list[dict]:
+    """Fit every bench photo at every preset; one result dict per (photo, preset)."""
+    from .pipeline import CaptureOptions, capture
+
+    with tempfile.TemporaryDirectory() as tmp:
+        where = folder or Path(tmp)
+        where.mkdir(parents=True, exist_ok=True)
+        photos = make_photos(where, quick=quick)
+        results = []
+        for preset in presets:
+            for photo in photos:
+                cap = capture(photo.path, CaptureOptions(quality=preset, seed=0))
+                row = {"preset": preset, "photo": photo.path.name, "family": photo.family,
+                       "status": cap.status, "seconds": cap.report["timings_s"]["total"],
+                       "psnr_db": cap.report["fit"]["psnr_db"] if cap.status == "ok" else None,
+                       "timings_s": cap.report["timings_s"], **compare(cap.fabric, photo.truth)}
+                results.append(row)
+                progress(f"{preset:6s} {photo.path.name:16s} {row['status']:8s} {row['seconds']:6.1f} s  "
+                         f"pattern {'exact' if row['pattern_exact'] else 'wrong'}  PSNR {row['psnr_db']}")
+    return results
+
+
+def summary(results: list[dict]) -> list[dict]:
+    """Per preset: median and max seconds, pattern-exact rate, median PSNR, plies/fibres rates,
+    and the median relative error of each continuous parameter."""
+    rows = []
+    for preset in dict.fromkeys(r["preset"] for r in results):
+        rs = [r for r in results if r["preset"] == preset]
+        fitted = [r for r in rs if r["fitted"]]
+        row = {"preset": preset, "photos": len(rs), "fitted": len(fitted),
+               "median_s": statistics.median(r["seconds"] for r in rs), "max_s": max(r["seconds"] for r in rs),
+               "pattern_exact": sum(r["pattern_exact"] for r in rs) / len(rs),
+               "median_psnr_db": statistics.median(r["psnr_db"] for r in fitted) if fitted else float("nan"),
+               "plies_ok": sum(r.get("plies_ok", False) for r in rs) / len(rs),
+               "fibers_ok": sum(r.get("fibers_ok", False) for r in rs) / len(rs),
+               "relative_error": {k: statistics.median(r["relative_error"][k] for r in fitted) if fitted else float("nan")
+                                  for k in CONTINUOUS_KEYS}}
+        rows.append(row)
+    return rows
+
+
+def table(rows: list[dict]) -> str:
+    """The README's fit bench tables (markdown)."""
+    out = ["| preset | photos fitted | median s | max s | pattern exact | median PSNR | plies ±1 | fibres ±1 |"
+           " median rel. error (all continuous) |", "|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        med = statistics.median(r["relative_error"].values())
+        out.append(f"| {r['preset']} | {r['fitted']}/{r['photos']} | {r['median_s']:.1f} | {r['max_s']:.1f} | "
+                   f"{r['pattern_exact']:.0%} | {r['median_psnr_db']:.1f} dB | {r['plies_ok']:.0%} | "
+                   f"{r['fibers_ok']:.0%} | {med:.1%} |")
+    out += ["", "| parameter | " + " | ".join(r["preset"] for r in rows) + " |",
+            "|---|" + "---|" * len(rows)]
+    for key in CONTINUOUS_KEYS:
+        out.append(f"| {key} | " + " | ".join(f"{r['relative_error'][key]:.1%}" for r in rows) + " |")
+    return "\n".join(out)
+
+
+def plot(rows: list[dict], path: Path) -> None:
+    """Speed against error (median seconds vs median relative error and PSNR) as a PNG."""
+    import cv2
+
+    from .photo import save_png, srgb_to_linear
+
+    h, w, m = 320, 480, 50
+    img = np.full((h, w, 3), 255, np.uint8)
+    cv2.rectangle(img, (m, 20), (w - 20, h - m), (0, 0, 0), 1)
+    xs = [r["median_s"] for r in rows]
+    ys = [100 * statistics.median(r["relative_error"].values()) for r in rows]
+    x_hi, y_hi = max(xs) * 1.15 or 1.0, max(ys) * 1.15 or 1.0
+
+    def at(x, y):
+        return int(m + x / x_hi * (w - 20 - m)), int((h - m) - y / y_hi * (h - m - 20))
+
+    pts = [at(x, y) for x, y in zip(xs, ys)]
+    cv2.polylines(img, [np.array(pts, np.int32)], False, (180, 180, 180), 1, cv2.LINE_AA)
+    for (px, py), r in zip(pts, rows):
+        cv2.circle(img, (px, py), 5, (200, 60, 20), -1, cv2.LINE_AA)
+        cv2.putText(img, f"{r['preset']} ({r['median_psnr_db']:.1f} dB)", (px + 8, py - 6), cv2.FONT_HERSHEY_SIMPLEX,
+                    0.42, (0, 0, 0), 1, cv2.LINE_AA)
+    cv2.putText(img, f"median seconds per photo (0..{x_hi:.0f})", (m, h - 18), cv2.FONT_HERSHEY_SIMPLEX, 0.45,
+                (0, 0, 0), 1, cv2.LINE_AA)
+    cv2.putText(img, f"median rel. error % (0..{y_hi:.0f})", (8, 14), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 0, 0), 1,
+                cv2.LINE_AA)
+    save_png(path, srgb_to_linear(img.astype(np.float32) / 255.0))
