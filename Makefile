@@ -1,5 +1,5 @@
 # Set-up and entry points for a fresh machine. See README.md.
-#   make demo   install, then run the main job on a bundled fixture
+#   make demo   install, then fit the bundled fixture photo (the main job) and re-render the result
 #   make test   install, then run the test suite (what .ci/run calls)
 PYTHON ?= python3
 VENV   ?= .venv
@@ -20,7 +20,8 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 demo: install
-	$(BIN)/weavecap synth fixtures/params/twill_2_1.json -o out/twill_2_1.png --tiles 4x4 --size 512 --force
+	$(BIN)/weavecap fit fixtures/photos/twill_3_1.png -o out/twill_3_1 --force
+	$(BIN)/weavecap synth out/twill_3_1/params.json -o out/twill_3_1/resynth.png --tiles 4x4 --size 512 --force
 
 test: install
 	$(BIN)/python -m pytest -q -p no:cacheprovider
