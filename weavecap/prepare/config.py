@@ -16,6 +16,10 @@ class PrepareConfig:
     # --- resolution -------------------------------------------------------------------------
     #: largest side of the centre crop used for the first, coarse pitch estimate (input px)
     coarse_crop_px: int = 768
+    #: that estimate is the finest spectral peak reaching this share of the strongest one and
+    #: this multiple of the spectrum's median (rectify.coarse_pitch)
+    coarse_rel_floor: float = 0.2
+    coarse_noise_floor: float = 6.0
     #: yarn pitch of the working image used to find the angle and the perspective
     work_pitch_px: float = 8.0
     #: largest side of that working image (a centre crop beyond it)
@@ -36,6 +40,8 @@ class PrepareConfig:
     radon_coarse_step_deg: float = 1.0
     #: largest departure from 90° between the two yarn families searched for (degrees)
     radon_pair_skew_deg: float = 4.0
+    #: pairs scoring at least this share of the best are equally good; the squarest one wins
+    radon_pair_tie: float = 0.85
     #: Radon: disc diameter, half-width and step of the fine search around each yarn direction
     radon_fine_diameter_px: int = 320
     radon_fine_halfwidth_deg: float = 1.5
@@ -87,8 +93,19 @@ class PrepareConfig:
     min_pitch_px: float = 3.5
     #: smallest relative contrast of the texture (std / mean of the flattened grey)
     min_contrast: float = 0.02
-    #: smallest periodicity of the integral projection at the pitch (see grid.folded_strength)
-    min_grid_strength: float = 0.35
+    #: smallest periodicity of the integral projection at the pitch (see grid.folded_strength):
+    #: the share of the projection's variance that one yarn period explains, chance removed
+    min_grid_strength: float = 0.2
+    #: an axis with a flat projection takes its pitch from the spectral lattice (grid.lattice_pitch,
+    #: over a centre crop of at most lattice_max_px, repeats up to lattice_max_yarns), or from the
+    #: projection where the two agree within lattice_pitch_tol; a DMF repeat must confirm it
+    lattice_pitch_tol: float = 0.03
+    #: ... and only when the other axis's projection is at least this periodic; the lattice must
+    #: hold this power share of the off-axis spectral peaks
+    lattice_min_known_strength: float = 0.4
+    lattice_min_share: float = 0.85
+    lattice_max_px: int = 512
+    lattice_max_yarns: int = 12
     #: smallest share of the image's structure (std) its projections keep along each axis
     min_grid_contrast: float = 0.08
     #: largest departure from 90° of the two yarn families (degrees)

@@ -276,3 +276,91 @@ def repeat_along(dmf: np.ndarray, pitch: float, *, max_yarns: int = 64, rel_tol:
     ms_, xs_ = np.array(ms, float), np.array(xs)
     rep = float((ms_ * xs_).sum() / (ms_ ** 2).sum())
     return n, rep, float(1.0 - vals[n - 1])
+
+
+# ----------------------------------------------------------------------------- spectral lattice
+
+def spectrum_peaks(grey: np.ndarray, *, count: int = 16, rel_floor: float = 0.01,
+                   max_side: int = 512) -> np.ndarray:
+    """The strongest peaks of the power spectrum of a rectified image, in one half-plane.
+
+    Parameters
+    ----------
+    grey : (H, W) float array, rectified (yarns along the axes), lighting flattened.
+    count : most peaks returned.
+    rel_floor : weakest peak kept, relative to the strongest.
+    max_side : side of the (square, centred) crop analysed.
+
+    Returns
+    -------
+    (K, 3) array of (fx, fy, power), frequencies in cycles per pixel with fx ≥ 0, strongest
+    first; peaks within two natural bins of the origin (the lighting) are left out.
+    """
+    h, w = grey.shape
+    n = int(min(h, w, max_side))
+    g = np.asarray(grey, np.float64)[(h - n) // 2:(h - n) // 2 + n, (w - n) // 2:(w - n) // 2 + n]
+    g = (g - g.mean()) * np.outer(np.hanning(n), np.hanning(n))
+    size = 2 * n
+    power = np.fft.fftshift(np.abs(np.fft.fft2(g, s=(size, size))) ** 2)
+    c = size // 2
+    yy, xx = np.indices(power.shape)
+    half = ((xx > c) | ((xx == c) & (yy > c))) & (np.hypot(yy - c, xx - c) > 4)
+    mx = cv2.dilate(power.astype(np.float32), np.ones((5, 5), np.uint8))
+    top = float(power[half].max()) if np.any(half) else 0.0
+    cand = np.argwhere(half & (power >= mx) & (power > rel_floor * top)) if top > 0 else np.empty((0, 2), int)
+    cand = sorted(cand.tolist(), key=lambda p: -power[p[0], p[1]])[:count]
+    return np.array([((ix - c) / size, (iy - c) / size, power[iy, ix]) for iy, ix in cand]).reshape(-1, 3)
+
+
+def _lattice_share(values: np.ndarray, weights: np.ndarray, unit: float, tol: float) -> float:
+    """Power-weighted share of ``values`` lying within ``tol`` of a whole multiple of ``unit``."""
+    off = np.abs(values / unit - np.round(values / unit)) * unit
+    return float(weights[off <= tol].sum() / max(float(weights.sum()), 1e-300))
+
+
+def lattice_pitch(peaks: np.ndarray, *, known_pitch: float, axis: int, max_yarns: int = 12,
+                  tol: float, min_share: float = 0.85) -> tuple[float | None, float]:
+    """The yarn pitch along an axis whose yarn boundaries do not show, from the weave's lattice.
+
+    A satin's or a twill's floats can hide the boundaries between the yarns they float over
+    (§4.4's projections are then flat along that axis), but not the interlacings: the peaks of
+    the spectrum lie on the reciprocal lattice of the repeat, (a·u_x, b·u_y) with u = yarn
+    frequency / yarns in the repeat. The known axis gives its yarn frequency k and the fewest
+    yarns n with all strong peaks at multiples of k/n; the other axis's unit u is the largest
+    one with all strong peaks at its multiples; a regular n-end satin or twill repeats over
+    n yarns on both axes, so the hidden yarn frequency is n·u.
+
+    Parameters
+    ----------
+    peaks : (K, 3) from :func:`spectrum_peaks` (rectified image).
+    known_pitch : yarn pitch (px) along the other axis, measured from its projection.
+    axis : the axis sought: 1 for y (wefts, pitch along y), 0 for x (warps).
+    max_yarns : most yarns in the repeat tried.
+    tol : largest distance (cycles/px) of a peak from a lattice line (the spectral resolution).
+    min_share : power share of the off-axis peaks that must lie on the lattice.
+
+    Returns
+    -------
+    (pitch_px or None, share): the power share of the off-axis peaks on the lattice found.
+    """
+    # peaks on an axis (the yarn frequencies, their harmonics, stripes) lie on every coarser
+    # lattice too: only the interlacings, off both axes, tell the repeat
+    off_axis = (np.abs(peaks[:, 0]) > tol) & (np.abs(peaks[:, 1]) > tol)
+    peaks = peaks[off_axis]
+    if len(peaks) < 3:
+        return None, 0.0
+    w = peaks[:, 2]
+    known = np.abs(peaks[:, 1 - axis])  # along the known axis: fx when y is sought
+    sought = np.abs(peaks[:, axis])
+    k = 1.0 / known_pitch
+    n = next((m for m in range(1, max_yarns + 1) if _lattice_share(known, w, k / m, tol) >= min_share), None)
+    if n is None or n < 2:
+        return None, 0.0
+    units = sorted({float(v / m) for v in sought[sought > 2 * tol] for m in range(1, max_yarns + 1)}, reverse=True)
+    for u in units:
+        if u <= 2 * tol:
+            break
+        share = _lattice_share(sought, w, u, tol)
+        if share >= min_share:
+            return 1.0 / (n * u), share
+    return None, 0.0

@@ -4,7 +4,10 @@ rectify (§4.1) → flatten the lighting → Gaussian (σ = pitch/16) → integr
 the yarn pitch along each axis (§4.4) → superposed DMFs give the minimum repeat as a whole
 number of yarns (§4.3) → kernel PCA over the repeats (§4.2) → yarn boundaries of the
 regularized image (§4.4). The order differs from the paper's list only in that the repeat is
-found before kernel PCA, whose patches are repeats.
+found before kernel PCA, whose patches are repeats. Where floats hide one family's yarn
+boundaries (a satin's flat projection along the floats), that axis's pitch comes from the
+lattice of spectral peaks (:func:`~weavecap.prepare.grid.lattice_pitch`) and must be
+confirmed by a repeat of the DMFs.
 
 A photo that is not a resolvable woven fabric is not fitted to noise: the result is then a
 :class:`Rejected` value with a reason a person can act on.
@@ -20,7 +23,8 @@ import cv2
 import numpy as np
 
 from .config import PrepareConfig
-from .grid import AxisGrid, Grid, axis_pitch, boundaries, folded_strength, projection, refine_pitch, repeat_along
+from .grid import (AxisGrid, Grid, axis_pitch, boundaries, folded_strength, lattice_pitch, projection, refine_pitch,
+                   repeat_along, spectrum_peaks)
 from .illumination import flatten_illumination, luminance
 from .period import superposed_dmf
 from .rectify import Rectification, rectify
@@ -159,6 +163,26 @@ def _dedupe(b: np.ndarray, gap: float) -> np.ndarray:
     return np.asarray(keep)
 
 
+def _lattice_pitches(smooth: np.ndarray, pitches: list, strengths: list,
+                     config: PrepareConfig) -> list[float | None]:
+    """Per axis (x, y), the yarn pitch the spectral lattice gives when only the other axis's
+    projection is periodic (:func:`~weavecap.prepare.grid.lattice_pitch`, §4.3–4.4); else None.
+
+    The lattice scales with the other axis's pitch, so that one must be well measured
+    (strength at least ``lattice_min_known_strength``).
+    """
+    weak = [s < config.min_grid_strength for s in strengths]
+    if weak[0] == weak[1] or max(strengths) < config.lattice_min_known_strength:
+        return [None, None]
+    peaks = spectrum_peaks(smooth, max_side=config.lattice_max_px)
+    n = min(smooth.shape[0], smooth.shape[1], config.lattice_max_px)
+    out: list[float | None] = [None, None]
+    i = 0 if weak[0] else 1
+    out[i], _ = lattice_pitch(peaks, known_pitch=pitches[1 - i], axis=i, max_yarns=config.lattice_max_yarns,
+                              tol=0.75 / n, min_share=config.lattice_min_share)
+    return out
+
+
 def _central(img: np.ndarray, side: int) -> np.ndarray:
     h, w = img.shape[:2]
     bh, bw = min(h, side), min(w, side)
@@ -244,6 +268,15 @@ def prepare_photo(rgb: np.ndarray, config: PrepareConfig = PrepareConfig(), *,
         timings["grid"] = time.perf_counter() - t
         return Rejected("no periodic yarn grid was found along both yarn directions: this does not look like "
                         "a woven fabric", "no_grid", checks)
+    # an axis whose projection is flat (floats hide its yarn boundaries) takes its pitch from the
+    # lattice of interlacings built from the other axis (the projection's own where the two
+    # agree); the superposed DMFs must then show a repeat at whole numbers of those yarns
+    lattice = _lattice_pitches(smooth, pitches, strengths, config)
+    checks.update(lattice_pitch_px=lattice)
+    from_lattice = [lp is not None for lp in lattice]
+    pitches = [p if lp is None or abs(lp / p - 1) <= config.lattice_pitch_tol else lp
+               for p, lp in zip(pitches, lattice)]
+    strengths_ok = [s >= config.min_grid_strength or fl for s, fl in zip(strengths, from_lattice)]
     px, py = pitches
     in_px = (px / rect.scale, py / rect.scale)
     checks.update(pitch_input_px=list(in_px))
@@ -255,7 +288,7 @@ def prepare_photo(rgb: np.ndarray, config: PrepareConfig = PrepareConfig(), *,
         reject = Rejected(f"the two yarn directions are {90 - rect.skew_deg:.0f}° apart, not about 90° (skew "
                           f"{rect.skew_deg:.1f}° > {config.max_skew_deg}°): this looks knitted or otherwise not woven",
                           "not_woven", checks)
-    elif min(strengths) < config.min_grid_strength or min(contrasts) < config.min_grid_contrast:
+    elif not all(strengths_ok) or min(contrasts) < config.min_grid_contrast:
         reject = Rejected(f"no regular yarn grid: the yarn spacing is not periodic enough (periodicity "
                           f"{min(strengths):.2f}, at least {config.min_grid_strength} needed; straight-yarn share "
                           f"{min(contrasts):.2f}, at least {config.min_grid_contrast}): this does not look like a "
@@ -293,6 +326,13 @@ def prepare_photo(rgb: np.ndarray, config: PrepareConfig = PrepareConfig(), *,
             reps.append((n, rep))
     checks.update(repeat_depth=depths)
     (ny, rep_h), (nx, rep_w) = reps
+    unconfirmed = [axis for axis, fl, fd in (("x", from_lattice[0], found[1]), ("y", from_lattice[1], found[0]))
+                   if fl and not fd]
+    if unconfirmed:
+        timings["grid"] = time.perf_counter() - t
+        return Rejected(f"no regular yarn grid: along {unconfirmed[0]} the yarn boundaries do not show, and the "
+                        "repeat that the lattice of interlacings implies is not found in the photo: this does not "
+                        "look like a woven fabric, or its yarns are hidden", "no_grid", checks)
     # the pitch is best known from the repeat, measured over all its multiples
     # (unless the two disagree: then the projection's pitch is kept)
     if found[0] and abs(rep_h / ny / py - 1) < 0.03:

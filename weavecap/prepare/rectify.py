@@ -2,8 +2,8 @@
 
 Three steps, each a plain function:
 
-1. :func:`coarse_pitch` — the dominant period of the texture (radial power spectrum of a
-   centre crop), only to choose working resolutions.
+1. :func:`coarse_pitch` — the finest strong period of the texture (radial power spectrum of
+   a centre crop), only to choose working resolutions.
 2. :func:`estimate_perspective` — the auto-rectification of pitch and yaw. The paper uses the
    RANSAC line-segment method of Chaudhury et al. [CDI14]; on a weave close-up the "segments"
    are the yarn lattice itself, so the local lattice is measured directly: the frequency of
@@ -13,7 +13,8 @@ Three steps, each a plain function:
 3. :func:`dominant_angles` — the Radon transform of the Laplacian-filtered image (the
    Laplacian keeps yarn edges and drops the broad angular features of highlights): the two
    yarn directions are the pair of angles, 90° apart up to a little skew, whose projections
-   vary most, found coarse to fine with a parabolic peak fit.
+   vary most (among pairs about equally strong, the one nearest the image axes: a twill's
+   diagonal can rival the yarns), found coarse to fine with a parabolic peak fit.
 
 :func:`rectify` chains them and returns the 3×3 homography from input pixels to rectified
 pixels (turn, skew and perspective, plus the resampling to a pitch-based resolution) and the
@@ -99,19 +100,29 @@ def _subbin(m: np.ndarray, iy: int, ix: int) -> tuple[float, float]:
 
 # ----------------------------------------------------------------------------- coarse pitch
 
-def coarse_pitch(grey: np.ndarray, *, crop_px: int = 768, min_period_px: float = 2.0) -> float | None:
-    """The dominant period of a texture, in pixels: a first guess at the yarn pitch.
+def coarse_pitch(grey: np.ndarray, *, crop_px: int = 768, min_period_px: float = 2.0,
+                 rel_floor: float = 0.2, noise_floor: float = 6.0) -> float | None:
+    """The finest strong period of a texture, in pixels: a first guess at the yarn pitch.
+
+    The yarns are the finest periodic structure of a weave; a twill's diagonal, a satin's
+    lattice of interlacings or a colour stripe have longer periods and are often stronger.
+    So the result is the *shortest* period among the peaks of the radially averaged power
+    spectrum (weighted by frequency squared, i.e. energy per octave) that reach ``rel_floor``
+    of the strongest one and ``noise_floor`` times the spectrum's median (JPEG blocks, fibre
+    noise and grain are broad, not peaked). It only chooses working resolutions (§4.1); the
+    pitch itself is measured later from the integral projections (§4.4).
 
     Parameters
     ----------
     grey : (H, W) float array, linear grey.
     crop_px : side of the centre crop analysed.
     min_period_px : shortest period considered.
+    rel_floor, noise_floor : how strong a peak must be, relative to the strongest peak and to
+        the median of the weighted spectrum.
 
     Returns
     -------
-    The period (px) of the strongest peak of the radially averaged power spectrum (weighted by
-    frequency, i.e. energy per octave), or None when the image is too small or flat.
+    The period (px), or None when the image is too small or flat.
     """
     h, w = grey.shape
     n = int(min(h, w, crop_px))
@@ -134,9 +145,13 @@ def coarse_pitch(grey: np.ndarray, *, crop_px: int = 768, min_period_px: float =
         return None
     score = radial[lo:hi] * k[lo:hi] ** 2  # energy per octave, favours the fine yarn structure
     score = np.convolve(score, [0.25, 0.5, 0.25], mode="same")
-    i = int(np.argmax(score)) + lo
-    if 0 < i - lo < len(score) - 1:
-        a, b, c = score[i - lo - 1], score[i - lo], score[i - lo + 1]
+    peaks = [j for j in range(1, len(score) - 1) if score[j] >= score[j - 1] and score[j] >= score[j + 1]]
+    floor = max(rel_floor * float(score.max()), noise_floor * float(np.median(score)))
+    strong = [j for j in peaks if score[j] >= floor]
+    j = max(strong) if strong else int(np.argmax(score))
+    i = float(j + lo)
+    if 0 < j < len(score) - 1:
+        a, b, c = score[j - 1], score[j], score[j + 1]
         den = a - 2 * b + c
         i = i + (0.5 * (a - c) / den if den < 0 else 0.0)
     return float(n / i)
@@ -359,6 +374,26 @@ def _parabola_peak(x: np.ndarray, y: np.ndarray) -> float:
     return float(x[i])
 
 
+def _squarest_pair(pair: np.ndarray, thetas: np.ndarray, *, tie: float) -> int:
+    """Index of the yarn-direction pair among the local maxima of the Radon pair score (§4.1).
+
+    A twill's diagonal, or the twist of plied yarns, can make a second pair of line families
+    about as strong as the yarns themselves. Among the local maxima that reach ``tie`` times
+    the best score (equally good within the score's noise), the pair nearest to the image
+    axes wins: a person photographing a swatch holds it roughly square to the frame far more
+    often than at 45°.
+    """
+    n = len(pair)
+    peaks = [i for i in range(n) if pair[i] >= pair[i - 1] and pair[i] >= pair[(i + 1) % n]]
+    good = [i for i in peaks if pair[i] >= tie * float(pair.max())] or [int(np.argmax(pair))]
+
+    def off_axis(i: int) -> float:
+        t = thetas[i] % 90.0
+        return min(t, 90.0 - t)
+
+    return min(good, key=lambda i: (off_axis(i), -pair[i]))
+
+
 def dominant_angles(img: np.ndarray, *, pitch_px: float, config: PrepareConfig = PrepareConfig()) -> dict:
     """The two yarn directions of a weave, by the Radon transform of its Laplacian (§4.1).
 
@@ -387,7 +422,7 @@ def dominant_angles(img: np.ndarray, *, pitch_px: float, config: PrepareConfig =
     reach = int(round(config.radon_pair_skew_deg / config.radon_coarse_step_deg))
     partner = np.max([np.roll(v, -(half + k)) for k in range(-reach, reach + 1)], axis=0)
     pair = np.sqrt(v * partner)
-    best = int(np.argmax(pair))
+    best = _squarest_pair(pair, thetas, tie=config.radon_pair_tie)
     k_best = max(range(-reach, reach + 1), key=lambda k: v[(best + half + k) % n_t])
     contrast = float(pair[best] / max(np.median(pair), 1e-12))
     edge_f = _disc(_laplacian_edges(img), config.radon_fine_diameter_px)
@@ -466,7 +501,9 @@ def rectify(rgb: np.ndarray, *, config: PrepareConfig = PrepareConfig(),
     """
     grey = luminance(rgb)
     h, w = grey.shape
-    p0 = pitch_px if pitch_px is not None else coarse_pitch(grey, crop_px=config.coarse_crop_px)
+    p0 = pitch_px if pitch_px is not None else coarse_pitch(grey, crop_px=config.coarse_crop_px,
+                                                           rel_floor=config.coarse_rel_floor,
+                                                           noise_floor=config.coarse_noise_floor)
     if p0 is None or not np.isfinite(p0):
         return None
     # working image: pitch ≈ work_pitch_px, a centre crop of at most work_max_px

@@ -62,26 +62,33 @@ def gaussian(rgb: np.ndarray, sigma_px: float) -> np.ndarray:
 
 
 def _kpca_reconstruct(tiles: np.ndarray, *, components: int, max_fit: int, seed: int) -> tuple[np.ndarray, int, int]:
-    """Project (N, D) tiles onto the leading kernel principal components and back."""
+    """Project (N, D) tiles onto the leading kernel principal components and back (§4.2).
+
+    The dense linear algebra (an N×N eigenproblem, a ridge solve) runs on one BLAS thread:
+    these problems are small (N ≤ ``kpca_max_patches``), and on a busy machine OpenBLAS's
+    threads wait on each other far longer than the work takes (measured: eigh of 300×300,
+    2.1 s on two loaded threads, 0.03 s on one).
+    """
     from sklearn.decomposition import KernelPCA
+    from threadpoolctl import threadpool_limits
 
     n = len(tiles)
     rng = np.random.default_rng(seed)
     fit_idx = rng.choice(n, size=min(n, max_fit), replace=False) if n > max_fit else np.arange(n)
     fit = tiles[fit_idx].astype(np.float64)
-    # RBF width from the typical distance between repeats
-    sub = fit[: min(len(fit), 200)]
-    sq = (sub ** 2).sum(1)
-    d2 = np.maximum(sq[:, None] + sq[None] - 2 * sub @ sub.T, 0)
-    med = float(np.median(d2[np.triu_indices(len(sub), 1)])) if len(sub) > 1 else 1.0
-    gamma = 1.0 / max(med, 1e-12)
     k = int(min(components, len(fit) - 1))
-    kpca = KernelPCA(n_components=k, kernel="rbf", gamma=gamma, fit_inverse_transform=True,
-                     alpha=0.05, eigen_solver="dense", random_state=seed)
-    kpca.fit(fit)
     out = np.empty_like(tiles, dtype=np.float32)
-    for s in range(0, n, 512):
-        out[s:s + 512] = kpca.inverse_transform(kpca.transform(tiles[s:s + 512].astype(np.float64)))
+    with threadpool_limits(limits=1):
+        # RBF width from the typical distance between repeats
+        sub = fit[: min(len(fit), 200)]
+        sq = (sub ** 2).sum(1)
+        d2 = np.maximum(sq[:, None] + sq[None] - 2 * sub @ sub.T, 0)
+        med = float(np.median(d2[np.triu_indices(len(sub), 1)])) if len(sub) > 1 else 1.0
+        kpca = KernelPCA(n_components=k, kernel="rbf", gamma=1.0 / max(med, 1e-12), fit_inverse_transform=True,
+                         alpha=0.05, eigen_solver="dense", random_state=seed)
+        kpca.fit(fit)
+        for s in range(0, n, 512):
+            out[s:s + 512] = kpca.inverse_transform(kpca.transform(tiles[s:s + 512].astype(np.float64)))
     return out, k, len(fit)
 
 

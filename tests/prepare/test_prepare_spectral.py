@@ -1,0 +1,97 @@
+"""The spectral choices of preparation (Wu et al. 2025 §4.1, §4.3–4.4) that real photos need.
+
+- the working resolution follows the *finest* strong period (the yarns), not the strongest
+  (a twill's diagonal, a satin's lattice of interlacings);
+- among equally strong pairs of line families the squarest one is the yarns;
+- a satin whose floats hide one family's yarn boundaries still has its pitch, from the
+  lattice of spectral peaks.
+"""
+
+from __future__ import annotations
+
+import importlib
+
+import numpy as np
+from synthetic import render
+
+from weavecap.prepare import PrepareConfig
+from weavecap.prepare.grid import lattice_pitch, spectrum_peaks
+from weavecap.prepare.illumination import luminance
+
+rectify_mod = importlib.import_module("weavecap.prepare.rectify")
+
+
+def _stripes(period: float, amplitude: float, angle_deg: float, n: int = 384) -> np.ndarray:
+    yy, xx = np.indices((n, n), dtype=float)
+    t = np.deg2rad(angle_deg)
+    return amplitude * np.cos(2 * np.pi * (xx * np.cos(t) + yy * np.sin(t)) / period)
+
+
+def test_coarse_pitch_is_the_finest_strong_period():
+    # a strong coarse diagonal (a twill line) over a weaker yarn grid of period 10
+    img = 1.0 + _stripes(40, 0.4, 35) + _stripes(10, 0.1, 0) + _stripes(10, 0.1, 90)
+    p = rectify_mod.coarse_pitch(img.astype(np.float32))
+    assert abs(p - 10) < 0.5, p
+
+
+def test_coarse_pitch_ignores_broad_noise():
+    rng = np.random.default_rng(1)
+    img = 1.0 + _stripes(16, 0.3, 10) + rng.normal(0, 0.3, (384, 384))
+    p = rectify_mod.coarse_pitch(img.astype(np.float32))
+    assert abs(p - 16) < 1.0, p
+
+
+def test_squarest_of_equally_strong_pairs_wins():
+    thetas = np.arange(0.0, 180.0, 1.0)
+
+    def bumps(centres_heights):
+        return sum(h * np.exp(-0.5 * (((thetas - c + 90) % 180 - 90) / 2.0) ** 2) for c, h in centres_heights)
+
+    pair = 0.01 + bumps([(31, 1.0), (121, 1.0), (2, 0.93), (92, 0.93)])
+    assert thetas[rectify_mod._squarest_pair(pair, thetas, tie=0.85)] == 2
+    pair = 0.01 + bumps([(31, 1.0), (121, 1.0), (2, 0.5), (92, 0.5)])
+    assert thetas[rectify_mod._squarest_pair(pair, thetas, tie=0.85)] == 31
+
+
+def test_lattice_pitch_of_an_ideal_satin():
+    px, py, n = 12.0, 5.0, 5
+    pts = [(a / (n * px), b / (n * py), 1.0) for a in range(0, 11) for b in range(-10, 11)
+           if (a - 2 * b) % n == 0 and (a, b) != (0, 0) and (a > 0 or b > 0)]
+    peaks = np.array(pts)
+    p, share = lattice_pitch(peaks, known_pitch=px, axis=1, tol=1e-4)
+    assert abs(p - py) < 1e-6 and share == 1.0
+    p, _ = lattice_pitch(peaks, known_pitch=py, axis=0, tol=1e-4)
+    assert abs(p - px) < 1e-6
+
+
+def test_lattice_pitch_of_a_rendered_satin():
+    img, truth = render("satin_5", size=(320, 320), pitch_px=(11.0, 6.0), noise=0.01, seed=4)
+    grey = luminance(img)
+    peaks = spectrum_peaks(grey, max_side=320)
+    p, share = lattice_pitch(peaks, known_pitch=11.0, axis=1, tol=0.75 / 320)
+    assert p is not None and abs(p / 6.0 - 1) < PrepareConfig().lattice_pitch_tol and share >= 0.85
+
+
+def test_lattice_pitch_needs_a_lattice():
+    rng = np.random.default_rng(2)
+    peaks = np.column_stack([rng.uniform(0, 0.3, 12), rng.uniform(-0.3, 0.3, 12), rng.uniform(0.1, 1, 12)])
+    p, _ = lattice_pitch(peaks, known_pitch=9.0, axis=1, tol=0.002)
+    assert p is None
+
+
+def test_satin_with_hidden_weft_boundaries_gets_its_weft_pitch_from_the_lattice():
+    import cv2
+
+    from weavecap.prepare import Prepared, Rejected, prepare_photo
+
+    img, _ = render("satin_5", size=(384, 384), pitch_px=(11.0, 6.0), angle_deg=3, noise=0.01, seed=4)
+    # blur along y only: the weft boundaries (6 px apart) fade, the interlacings stay
+    img = cv2.GaussianBlur(img, (0, 0), sigmaX=0.3, sigmaY=2.5)
+    r = prepare_photo(img)
+    assert isinstance(r, Prepared), getattr(r, "reason", "")
+    assert r.checks["grid_strength"][1] < PrepareConfig().min_grid_strength  # the projection is flat
+    warp, weft = (p / r.rectification.scale for p in r.grid.pitch_px)
+    assert abs(warp / 11 - 1) < 0.02 and abs(weft / 6 - 1) < 0.02
+    assert tuple(r.grid.yarns) == (5, 5)
+    # without the lattice the same photo has no grid
+    assert isinstance(prepare_photo(img, PrepareConfig(lattice_min_known_strength=1.01)), Rejected)
