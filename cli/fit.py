@@ -57,7 +57,7 @@ def _run_one(photo: str, folder: str, options, threads: int | None) -> tuple[dic
     """Capture one photo into ``folder``; never raises (a failure is a report). Runs in a
     worker process with ``--jobs``."""
     from weavecap.errors import WeavecapError
-    from weavecap.pipeline import REPORT_FORMAT, capture, write_capture
+    from weavecap.pipeline import base_report, capture, write_capture
 
     if threads:
         from weavecap.backend import mitsuba
@@ -78,8 +78,9 @@ def _run_one(photo: str, folder: str, options, threads: int | None) -> tuple[dic
         if os.environ.get("WEAVECAP_DEBUG"):
             raise
         status, code, reason = "failed", 1, f"unexpected error: {type(exc).__name__}: {exc}"
-    report = {"format": REPORT_FORMAT, "input": {"path": photo}, "status": "failed" if status == "invalid" else status,
-              "reason": reason, "timings_s": {"total": round(time.perf_counter() - t0, 3)}}
+    report = base_report(photo, options)
+    report.update(status="failed" if status == "invalid" else status, reason=reason,
+                  timings_s={"total": round(time.perf_counter() - t0, 3)})
     from weavecap.io import atomic_write_text
 
     Path(folder).mkdir(parents=True, exist_ok=True)

@@ -97,3 +97,14 @@ def test_fixed_pattern_is_never_changed():
     result = fit(target, truth, config=config, fixed=frozenset({"pattern"}))
     assert np.array_equal(result.fabric.pattern, truth.pattern)
     assert "pattern" not in result.moves
+
+
+@pytest.mark.parametrize("mode", ["search", "anneal", "gradient"])
+def test_every_radius_mode_moves_a_wrong_radius_towards_the_truth(mode):
+    truth = params.load(FIXTURES / "plain.json")
+    config = PRESETS["draft"].with_(iterations=8, anneal_every=1, radius_every=1, learning_rate=0.05)
+    target = canvas_of(truth, cell_px_for(config, truth.shape))
+    start = truth.replace({"warp.radius": truth.warp.radius - 1.0, "weft.radius": truth.weft.radius - 1.0})
+    result = fit(target, start, config=config, radius_mode=mode, fixed=frozenset({"pattern", "plies", "fibers"}))
+    moved = [abs(result.fabric.get(k) - truth.get(k)) < 1.0 for k in ("warp.radius", "weft.radius")]
+    assert any(moved), result.moves

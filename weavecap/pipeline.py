@@ -97,7 +97,9 @@ def align_cells(image: np.ndarray, cells):
     The yarn boundaries of §4.4 are valleys of the integral projection — right under front
     light, where gaps are dark, but half a pitch off under back light, where they glow. A
     corner window holds a gap and four yarn edges whatever the light; a centre window sits on a
-    smooth crossing. ``image`` (H, W, 3) linear RGB, ``cells`` a CellGrid in its pixels.
+    smooth crossing. (Finer shifts, and the orientation coherence of each cell, were tried and
+    chose worse phases on the bench photos.) ``image`` (H, W, 3) linear RGB, ``cells`` a
+    CellGrid in its pixels.
     """
     from .estimate.cells import CellGrid, cell_canvas
 
@@ -119,8 +121,20 @@ def align_cells(image: np.ndarray, cells):
     return best
 
 
+def dual(fabric: wparams.Fabric) -> wparams.Fabric:
+    """The fabric with every cell's state flipped and the warp's and weft's colours and radii
+    exchanged: in each cell the other yarn family is on top, in the colour that was there. A
+    cell-colour match cannot tell the two apart (a plain weave's two phases look alike cell by
+    cell); only the yarns' shapes (running across or down) can."""
+    swap = {}
+    for key in ("body_reflection", "body_subsurface", "radius"):
+        swap[f"warp.{key}"], swap[f"weft.{key}"] = fabric.get(f"weft.{key}"), fabric.get(f"warp.{key}")
+    return fabric.replace({**swap, "pattern": 1 - fabric.pattern})
+
+
 def photo_blur(fabric: wparams.Fabric, target: np.ndarray, *, light: str, spp: int) -> float:
-    """σ (canvas px) of the Gaussian that makes a render of ``fabric`` most like ``target``.
+    """σ (canvas px) of the Gaussian that makes a render of ``fabric`` most like ``target``,
+    and the MSE it leaves.
 
     The regularized photo is smoothed by §4.2's Gaussian (σ = pitch / 16), by resampling to
     the canvas and by the camera itself; how much in all varies from photo to photo, and the
@@ -136,7 +150,16 @@ def photo_blur(fabric: wparams.Fabric, target: np.ndarray, *, light: str, spp: i
     image = render_numpy(build_scene(fabric, View(tiles=(1, 1), size=max(target.shape[:2]), spp=spp), light=light))
     best = minimize_scalar(lambda s: blurred_mse(image, target, s), bounds=(0.0, c / 4), method="bounded",
                            options={"xatol": 0.02})
-    return float(best.x)
+    return float(best.x), float(best.fun)
+
+
+def _better_of_dual(start: wparams.Fabric, target: np.ndarray, light: str, spp: int):
+    """The pre-estimate or its :func:`dual`, whichever renders closer to the photo (each at its
+    own best blur); returns (fabric, blur_px, what was compared)."""
+    options = {"pre_estimate": start, "dual": dual(start)}
+    scores = {name: photo_blur(f, target, light=light, spp=spp) for name, f in options.items()}
+    name = min(scores, key=lambda k: scores[k][1])
+    return options[name], scores[name][0], {"chosen": name, **{k: round(v[1], 6) for k, v in scores.items()}}
 
 
 def _pattern_confidence(fs, target: np.ndarray, spp: int, blur_px: float) -> float:
@@ -150,6 +173,17 @@ def _pattern_confidence(fs, target: np.ndarray, spp: int, blur_px: float) -> flo
     flipped = cell_errors(blur(render_numpy(fs, spp=spp), blur_px), target, pattern.shape)
     fs.set("pattern", pattern)
     return float(np.mean(flipped > now))
+
+
+def base_report(photo_path: str | Path, options: CaptureOptions) -> dict:
+    """A report.json with every part the contract requires, before anything is known (the
+    parts are filled as the stages finish; a photo that fails early keeps the placeholders)."""
+    return {"format": REPORT_FORMAT, "input": {"path": str(photo_path), "sha256": "", "width": 0, "height": 0},
+            "status": "failed", "rectification": {"rotation_deg": 0.0, "homography": np.eye(3).tolist()},
+            "grid": {"repeat_px": [0, 0], "pitch_px": [0, 0], "yarns": [0, 0]},
+            "fit": {"psnr_db": 0.0, "iterations": 0}, "timings_s": {"total": 0.0},
+            "options": {"quality": options.quality, "light": options.light, "seed": options.seed,
+                        "budget_s": options.budget_s, "network": options.use_network}}
 
 
 def _rejected(report: dict, reason: str, code: str, timings: dict, t0: float) -> Capture:
@@ -175,12 +209,7 @@ def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), 
     say = progress or (lambda _msg: None)
     t0 = time.perf_counter()
     timings: dict[str, float] = {}
-    report: dict = {"format": REPORT_FORMAT, "input": {"path": str(photo_path)}, "status": "failed",
-                    "rectification": {"rotation_deg": 0.0, "homography": np.eye(3).tolist()},
-                    "grid": {"repeat_px": [0, 0], "pitch_px": [0, 0], "yarns": [0, 0]},
-                    "fit": {"psnr_db": 0.0, "iterations": 0}, "options": {
-                        "quality": options.quality, "light": options.light, "seed": options.seed,
-                        "budget_s": options.budget_s, "network": options.use_network}}
+    report = base_report(photo_path, options)
 
     say("loading")
     t = time.perf_counter()
@@ -235,7 +264,10 @@ def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), 
     say(f"fitting ({options.quality}: up to {config.iterations} steps"
         + (f", {options.budget_s:g} s budget" if options.budget_s else "") + ")")
     t = time.perf_counter()
-    blur_px = photo_blur(start, target, light=options.light, spp=config.spp)
+    if options.pattern is None and options.start_from is None:
+        start, blur_px, report["pre_estimation"]["dual"] = _better_of_dual(start, target, options.light, config.spp)
+    else:
+        blur_px, _ = photo_blur(start, target, light=options.light, spp=config.spp)
     result = fit(target, start, config=config, light=options.light, seed=options.seed, budget_s=options.budget_s,
                  fixed=fixed, blur_px=blur_px)
     timings["fit"] = time.perf_counter() - t

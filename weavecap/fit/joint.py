@@ -11,7 +11,8 @@ most promising flips) at fixed points of the fit, once the continuous values hav
 a flip judged against badly fitted colours is a coin toss. The radii, by default, follow a
 greedy pattern search (:class:`_RadiusSearch`).
 
-Adam works on each parameter scaled to its range ([0, 1]), so one learning rate fits all.
+Adam works on each parameter scaled to its range ([0, 1]), so one learning rate fits all; the
+rate follows a cosine from ``learning_rate`` down to a tenth of it over the iterations.
 Eq. 5 as printed penalises values *inside* the range; the intent, and what is used here, is
 ``λ (max(0, a − x)² + max(0, x − b)²)`` on the raw value x with range [a, b].
 """
@@ -116,8 +117,7 @@ class _Annealer:
             a, b = DISCRETE_STEPS[kind]
             step = int(self.rng.integers(a, b + 1)) * int(self.rng.choice([-1, 1]))
             return int(np.clip(current + step, lo, hi))
-        current = float(fabric.get(kind))
-        return float(np.clip(current + self.rng.choice([-1, 1]) * self.config.radius_step, lo, hi))
+        return float(np.clip(self._current(kind) + self.rng.choice([-1, 1]) * self.config.radius_step, lo, hi))
 
     def _current(self, kind: str):
         if kind in DISCRETE_STEPS:
@@ -237,6 +237,9 @@ def fit(target: np.ndarray, start: Fabric, *, config: FitConfig = FitConfig(), l
 
     unit = torch.tensor(np.clip(vec.read(start), 0.0, 1.0), dtype=torch.float64, requires_grad=True)
     adam = torch.optim.Adam([unit], lr=config.learning_rate)
+    # the step shrinks along a cosine to a tenth: big moves first, then settling into the minimum
+    schedule = torch.optim.lr_scheduler.CosineAnnealingLR(adam, T_max=config.iterations,
+                                                          eta_min=0.1 * config.learning_rate)
     annealer = _Annealer(fs, config, np.random.default_rng(seed), radius_mode=radius_mode, fixed=fixed)
     search = _RadiusSearch(fs, config, free_radii if radius_mode == "search" else [])
     pattern_free = config.pattern_moves and "pattern" not in fixed and start.pattern.size > 1
@@ -254,6 +257,7 @@ def fit(target: np.ndarray, start: Fabric, *, config: FitConfig = FitConfig(), l
         _, g_barrier = barrier(raw, vec.lo, vec.hi, config.barrier_lambda)
         unit.grad = torch.from_numpy(vec.gather(grads) + g_barrier * (vec.hi - vec.lo))
         adam.step()
+        schedule.step()
         with torch.no_grad():
             unit.clamp_(0.0, 1.0)
         vec.write(fs, unit.detach().numpy())
@@ -261,7 +265,7 @@ def fit(target: np.ndarray, start: Fabric, *, config: FitConfig = FitConfig(), l
             annealer.step(measure)
         if step in sweep_steps:
             sweeps.append(_pattern_sweep(fs, target, light=light, spp=config.spp, blur_px=blur_px))
-        if search.keys and step % config.radius_every == 1:
+        if search.keys and (step - 1) % config.radius_every == 0:
             search.step(measure)
         if progress is not None:
             progress(step, config.iterations, loss)
