@@ -19,6 +19,7 @@ Eq. 5 as printed penalises values *inside* the range; the intent, and what is us
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from dataclasses import dataclass, field
@@ -150,13 +151,19 @@ def _pattern_sweep(fs: FabricScene, target: np.ndarray, *, light: str, spp: int,
     its pattern (it only accepts flips that lower the error)."""
     from ..estimate.forward import RepeatRenderer
     from ..estimate.pattern import anneal_pattern
+    from ..estimate.sampling import interlaces
 
     before = fs.fabric.pattern.copy()
     c = target.shape[0] // before.shape[0]
     renderer = RepeatRenderer(fs.to_fabric(), cell_px=c, light=light, spp=spp, blur_cells=blur_px / c)
     result = anneal_pattern(target, renderer, start=before, match_colour=False)
-    if not np.array_equal(result.pattern, before):
+    # a woven fabric interlaces: a yarn that is on top (or under) across the whole repeat would
+    # not be held in place, so such a sweep result is a fit artefact and is not kept
+    keep = not np.array_equal(result.pattern, before) and (interlaces(result.pattern) or not interlaces(before))
+    if keep:
         fs.set("pattern", result.pattern)
+    else:
+        result = dataclasses.replace(result, pattern=before)
     return {"changed": int(np.sum(result.pattern != before)), "renders": result.renders}
 
 
