@@ -1,0 +1,17 @@
+"""Pre-estimation (Wu et al. 2025 §5): the start of the joint fit.
+
+- :mod:`.cells` — a photo's repeat on a canvas of equal cells (the grid of §4.4 in, arrays out);
+- :mod:`.forward` — renders of one repeat on that canvas (the forward model of :mod:`weavecap.model`);
+- :mod:`.pattern` — §5.1, batched annealing at T = 0 (and the yarn radii it needs);
+- :mod:`.colour` — §5.2, warp, weft and specular colours; CIELAB ΔE;
+- :mod:`.initializer` — §5.3, the VGG-style network, or Table 1 defaults (§7.3);
+- :mod:`.training`, :mod:`.sampling` — its training data and training (``weavecap train-initializer``);
+- :mod:`.weave_name` — the weave's name for people;
+- :mod:`.preestimate` — all of it in order: :func:`pre_estimate`.
+"""
+
+from .cells import CellGrid, cell_canvas
+from .preestimate import PreEstimate, default_fabric, pre_estimate
+from .weave_name import weave_name
+
+__all__ = ["CellGrid", "cell_canvas", "PreEstimate", "default_fabric", "pre_estimate", "weave_name"]

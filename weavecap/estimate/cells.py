@@ -1,0 +1,133 @@
+"""Cells of one weave repeat: resampling a photo onto a regular cell canvas (Wu et al. §5).
+
+The preparation stage (§4.4) gives the boundaries of the cells of one minimum repeat in the
+regularized photo: ``rows`` (n_e + 1,) y positions between wefts and ``cols`` (n_a + 1,) x
+positions between warps, in pixels, ascending (cells may differ in size). Every estimator of
+this package works on a *cell canvas*: that repeat resampled so that each cell is exactly
+``cell_px`` × ``cell_px`` pixels, which is also the layout of a forward-model render of one
+repeat (``View(tiles=(1, 1), size=cell_px * max(n_e, n_a))``: cell (i, j) covers rows
+``i*cell_px .. (i+1)*cell_px`` and columns ``j*cell_px ..``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+
+@dataclass(frozen=True)
+class CellGrid:
+    """Cell boundaries of one repeat in an image, pixels (y for ``rows``, x for ``cols``).
+
+    Attributes
+    ----------
+    rows : (n_e + 1,) float array, ascending: the top of each weft's cell, then the bottom.
+    cols : (n_a + 1,) float array, ascending: the left of each warp's cell, then the right.
+    """
+
+    rows: np.ndarray
+    cols: np.ndarray
+
+    def __post_init__(self):
+        for name in ("rows", "cols"):
+            b = np.asarray(getattr(self, name), dtype=np.float64)
+            if b.ndim != 1 or b.size < 2 or np.any(np.diff(b) <= 0):
+                raise ValueError(f"{name} must be at least two ascending boundaries, got {b!r}")
+            object.__setattr__(self, name, b)
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(wefts, warps) of the repeat."""
+        return self.rows.size - 1, self.cols.size - 1
+
+    @classmethod
+    def regular(cls, shape: tuple[int, int], cell_px: float, origin: tuple[float, float] = (0.0, 0.0)) -> "CellGrid":
+        """Evenly spaced cells of ``cell_px`` from ``origin`` (y, x), e.g. a render's grid."""
+        n_e, n_a = shape
+        return cls(rows=origin[0] + cell_px * np.arange(n_e + 1), cols=origin[1] + cell_px * np.arange(n_a + 1))
+
+
+def _axis_map(bounds: np.ndarray, cell_px: int) -> np.ndarray:
+    """Source coordinate (pixel-centre convention) of each canvas pixel along one axis."""
+    n = bounds.size - 1
+    t = (np.arange(n * cell_px) + 0.5) / cell_px  # position in cells
+    return np.interp(t, np.arange(n + 1), bounds) - 0.5
+
+
+def cell_canvas(image: np.ndarray, grid: CellGrid, cell_px: int) -> np.ndarray:
+    """Resample the repeat of ``image`` inside ``grid`` so that every cell is ``cell_px`` square.
+
+    Parameters
+    ----------
+    image : (H, W, 3) float linear RGB, holding the repeat (cells outside it are read with
+        reflection at the image border).
+    grid : the repeat's cell boundaries in ``image`` pixels.
+    cell_px : side of a cell on the canvas, pixels.
+
+    Returns
+    -------
+    (n_e * cell_px, n_a * cell_px, 3) float32 linear RGB. Shrinking is area-averaged (the
+    image is blurred to the canvas's sampling first), enlarging is bilinear.
+    """
+    img = np.asarray(image, dtype=np.float32)
+    scale = min(np.diff(grid.rows).min(), np.diff(grid.cols).min()) / cell_px
+    if scale > 1.5:  # shrink: prefilter so that bilinear sampling does not alias
+        img = cv2.GaussianBlur(img, (0, 0), 0.5 * np.sqrt(scale * scale - 1.0), borderType=cv2.BORDER_REFLECT)
+    ys = _axis_map(grid.rows, cell_px).astype(np.float32)
+    xs = _axis_map(grid.cols, cell_px).astype(np.float32)
+    map_x, map_y = np.meshgrid(xs, ys)
+    return cv2.remap(img, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT)
+
+
+def _cell_blocks(canvas: np.ndarray, shape: tuple[int, int], trim: float) -> np.ndarray:
+    """(n_e, n_a, pixels, C) trimmed cell contents of an (n_e * c, n_a * c, C) canvas."""
+    n_e, n_a = shape
+    c = canvas.shape[0] // n_e
+    lo, hi = int(round(trim * c)), c - int(round(trim * c))
+    blocks = np.asarray(canvas, dtype=np.float64).reshape(n_e, c, n_a, c, -1)[:, lo:hi, :, lo:hi]
+    return blocks.transpose(0, 2, 1, 3, 4).reshape(n_e, n_a, (hi - lo) ** 2, -1)
+
+
+def cell_errors(render: np.ndarray, photo: np.ndarray, shape: tuple[int, int], *, trim: float = 0.1,
+                match_colour: bool = False) -> np.ndarray:
+    """Per-cell mean squared difference of a render and a photo canvas, edges trimmed.
+
+    With ``match_colour`` the render's cell is first given, per channel, the offset and the
+    non-negative gain that fit the photo's cell best (least squares): what is left is the
+    error of the cell's *structure* — which yarn lies on top, how its shading runs — and not
+    of colours or brightness the fabric's parameters do not yet match.
+
+    Returns
+    -------
+    (n_e, n_a) float64, linear RGB² per pixel and channel.
+    """
+    r = _cell_blocks(render, shape, trim)
+    p = _cell_blocks(photo, shape, trim)
+    if not match_colour:
+        return np.square(r - p).mean(axis=(2, 3))
+    r = r - r.mean(axis=2, keepdims=True)
+    p = p - p.mean(axis=2, keepdims=True)
+    rr = np.square(r).sum(axis=2)
+    rp = (r * p).sum(axis=2)
+    gain = np.where(rr > 1e-12, np.maximum(rp, 0.0) / np.maximum(rr, 1e-12), 0.0)
+    residual = np.square(p).sum(axis=2) - gain * rp
+    return residual.mean(axis=2) / r.shape[2]
+
+
+def wrap_window(canvas: np.ndarray, shape: tuple[int, int], cells: int) -> np.ndarray:
+    """A ``cells`` × ``cells`` window of the infinite tiling of a repeat's canvas, from cell (0, 0).
+
+    Parameters
+    ----------
+    canvas : (n_e * c, n_a * c, ...) array of one repeat; shape : (n_e, n_a).
+
+    Returns
+    -------
+    (cells * c, cells * c, ...) array.
+    """
+    n_e, n_a = shape
+    c = canvas.shape[0] // n_e
+    reps = (-(-cells // n_e), -(-cells // n_a)) + (1,) * (canvas.ndim - 2)
+    return np.tile(canvas, reps)[: cells * c, : cells * c]

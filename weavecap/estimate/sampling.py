@@ -1,0 +1,119 @@
+"""Random fabrics over Table 1 (Wu et al. 2025 §5.3): training and held-out data.
+
+Patterns come from the named families (plain, twill, satin, basket, rib) and from random
+binary matrices in which every yarn interlaces; parameters are uniform over
+:data:`weavecap.params.FIT_RANGES`. Colours: body colours uniform per channel; the body
+subsurface colour is the body colour with a ±20% tint per channel (a yarn's transmitted colour
+follows its reflected one); specular colours are a grey level with a ±15% tint (dielectric
+highlights are nearly white). Every draw comes from the ``numpy.random.Generator`` passed in.
+"""
+
+from __future__ import annotations
+
+from math import gcd
+
+import numpy as np
+
+from ..params import FIT_RANGES, Fabric, from_dict
+
+FAMILIES = ("plain", "twill", "satin", "basket", "rib", "random")
+
+
+def twill(over: int, under: int, *, step: int = 1) -> np.ndarray:
+    """Twill ``over``/``under``: each weft floats over ``over`` warps, shifted by ``step`` per row."""
+    n = over + under
+    row = np.array([1] * over + [0] * under, dtype=np.uint8)
+    return np.stack([np.roll(row, step * i) for i in range(n)])
+
+
+def satin(n: int, step: int) -> np.ndarray:
+    """Weft-faced satin of ``n`` with move number ``step`` (coprime with ``n``)."""
+    p = np.ones((n, n), dtype=np.uint8)
+    p[np.arange(n), (np.arange(n) * step) % n] = 0
+    return p
+
+
+def interlaces(pattern: np.ndarray) -> bool:
+    """Every weft and every warp has both states (no yarn floats over the whole repeat)."""
+    p = np.asarray(pattern)
+    return bool(p.min(axis=1).max() == 0 and p.max(axis=1).min() == 1
+                and p.min(axis=0).max() == 0 and p.max(axis=0).min() == 1)
+
+
+def random_binary(rng: np.random.Generator, shape: tuple[int, int]) -> np.ndarray:
+    """A random (wefts, warps) 0/1 pattern in which every yarn interlaces."""
+    while True:
+        p = (rng.random(shape) < rng.uniform(0.3, 0.7)).astype(np.uint8)
+        if interlaces(p):
+            return p
+
+
+def random_pattern(rng: np.random.Generator, *, family: str | None = None, max_size: int = 8) -> tuple[str, np.ndarray]:
+    """A pattern of ``family`` (random family if None), at most ``max_size`` yarns per side.
+
+    Returns (family, (wefts, warps) uint8 array); weft- and warp-faced versions (the complement)
+    and both twill directions are equally likely.
+    """
+    family = family or str(rng.choice(FAMILIES))
+    if family == "plain":
+        p = np.array([[1, 0], [0, 1]], dtype=np.uint8)
+    elif family == "twill":
+        n = int(rng.integers(3, min(8, max_size) + 1))
+        over = int(rng.integers(1, n))
+        p = twill(over, n - over, step=int(rng.choice([-1, 1])))
+    elif family == "satin":
+        n = int(rng.choice([k for k in (5, 7, 8) if k <= max_size] or [5]))
+        steps = [s for s in range(2, n - 1) if gcd(s, n) == 1]
+        p = satin(n, int(rng.choice(steps)))
+    elif family == "basket":
+        k = int(rng.integers(2, max(2, min(4, max_size // 2)) + 1))
+        p = np.kron(np.array([[1, 0], [0, 1]], dtype=np.uint8), np.ones((k, k), dtype=np.uint8))
+    elif family == "rib":
+        k = int(rng.integers(2, max(2, min(4, max_size // 2)) + 1))
+        block = np.ones((k, 1), dtype=np.uint8) if rng.random() < 0.5 else np.ones((1, k), dtype=np.uint8)
+        p = np.kron(np.array([[1, 0], [0, 1]], dtype=np.uint8), block)
+    elif family == "random":
+        p = random_binary(rng, (int(rng.integers(2, max_size + 1)), int(rng.integers(2, max_size + 1))))
+    else:
+        raise ValueError(f"unknown pattern family {family!r}; one of {', '.join(FAMILIES)}")
+    if rng.random() < 0.5:
+        p = 1 - p
+    return family, p.astype(np.uint8)
+
+
+def _uniform(rng: np.random.Generator, key: str) -> float:
+    lo, hi = FIT_RANGES[key]
+    return float(rng.uniform(lo, hi))
+
+
+def _tinted(rng: np.random.Generator, base, spread: float) -> list[float]:
+    return np.clip(np.asarray(base) * rng.uniform(1 - spread, 1 + spread, 3), 0.0, 1.0).tolist()
+
+
+def random_fabric(rng: np.random.Generator, pattern: np.ndarray) -> Fabric:
+    """A fabric with ``pattern`` and every other parameter drawn over Table 1's ranges."""
+    def yarn(name: str) -> dict:
+        body = rng.uniform(0.0, 1.0, 3)
+        return {"radius": _uniform(rng, f"{name}.radius"), "body_reflection": body.tolist(),
+                "body_subsurface": _tinted(rng, body, 0.2)}
+
+    def grey() -> list[float]:
+        return _tinted(rng, [rng.uniform(0.0, 1.0)] * 3, 0.15)
+
+    doc = {
+        "format": "weavecap.params/1",
+        "pattern": np.asarray(pattern).astype(int).tolist(),
+        "plies": int(rng.integers(FIT_RANGES["plies"][0], FIT_RANGES["plies"][1] + 1)),
+        "fibers": int(rng.integers(FIT_RANGES["fibers"][0], FIT_RANGES["fibers"][1] + 1)),
+        "warp": yarn("warp"), "weft": yarn("weft"),
+        "specular": {
+            "coefficient": _uniform(rng, "specular.coefficient"), "reflection": grey(),
+            "transmission": grey(), "transmission_exit": grey(),
+            "roughness": _uniform(rng, "specular.roughness"), "roughness_exit": _uniform(rng, "specular.roughness_exit"),
+            "ior": _uniform(rng, "specular.ior"), "ior_exit": _uniform(rng, "specular.ior_exit"),
+            "attenuation": _uniform(rng, "specular.attenuation"),
+        },
+        "body_attenuation": _uniform(rng, "body_attenuation"),
+        "shadowing": {"ply": _uniform(rng, "shadowing.ply"), "fiber": _uniform(rng, "shadowing.fiber")},
+    }
+    return from_dict(doc)

@@ -1,0 +1,113 @@
+"""Names of weaves for people, and pattern comparisons up to a cyclic shift.
+
+A pattern (wefts, warps), 1 = weft over warp, is named after its minimum repeat:
+
+- ``plain``;
+- ``twill a/b`` (each weft passes over ``a`` warps and under ``b``; a > b is weft-faced) with
+  its direction: ``Z`` when the diagonal rises to the right ("/"), ``S`` when it falls ("\\");
+- ``satin n/s``: n × n, one interlacing per yarn, moving ``s`` warps per weft (s ≠ ±1,
+  coprime with n), ``weft-faced`` or ``warp-faced``;
+- ``basket k/k`` (k × k blocks of plain weave) and ``rib`` (plain weave with yarns doubled in
+  one direction);
+- ``custom n×m`` otherwise.
+
+Every name is invariant to cyclic shifts of the repeat (the photo's repeat may start at any
+yarn) and to repeating it.
+"""
+
+from __future__ import annotations
+
+from math import gcd
+
+import numpy as np
+
+
+def minimal_repeat(pattern: np.ndarray) -> np.ndarray:
+    """The smallest block whose tiling is ``pattern`` (which tiles to it)."""
+    p = np.asarray(pattern, dtype=np.uint8)
+    n_e, n_a = p.shape
+    rows = next(k for k in range(1, n_e + 1) if n_e % k == 0 and np.array_equal(p, np.roll(p, k, axis=0)))
+    cols = next(k for k in range(1, n_a + 1) if n_a % k == 0 and np.array_equal(p, np.roll(p, k, axis=1)))
+    return p[:rows, :cols].copy()
+
+
+def shift_agreement(a: np.ndarray, b: np.ndarray) -> tuple[float, tuple[int, int]]:
+    """Largest fraction of equal cells of ``a`` and a cyclic shift of ``b`` (same shape), and
+    that shift (rows, cols) such that ``np.roll(b, shift, axis=(0, 1))`` matches best."""
+    a, b = np.asarray(a), np.asarray(b)
+    if a.shape != b.shape:
+        raise ValueError(f"patterns differ in shape: {a.shape} and {b.shape}")
+    best, best_shift = -1.0, (0, 0)
+    for i in range(a.shape[0]):
+        for j in range(a.shape[1]):
+            agree = float(np.mean(a == np.roll(b, (i, j), axis=(0, 1))))
+            if agree > best:
+                best, best_shift = agree, (i, j)
+    return best, best_shift
+
+
+def equal_up_to_shift(a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether two patterns tile the same fabric, up to a cyclic shift."""
+    a, b = minimal_repeat(a), minimal_repeat(b)
+    return a.shape == b.shape and shift_agreement(a, b)[0] == 1.0
+
+
+def _twill(p: np.ndarray) -> str | None:
+    n = p.shape[0]
+    if n < 3 or p.shape != (n, n):
+        return None
+    row = p[0]
+    ones = int(row.sum())
+    # one run of ones and one of zeros, cyclically
+    if not 0 < ones < n or int(np.sum(row != np.roll(row, 1))) != 2:
+        return None
+    for step, direction in ((1, "S"), (-1, "Z")):
+        if all(np.array_equal(p[i], np.roll(row, step * i)) for i in range(n)):
+            return f"twill {ones}/{n - ones} {direction}"
+    return None
+
+
+def _satin(p: np.ndarray) -> str | None:
+    n = p.shape[0]
+    if n < 5 or p.shape != (n, n):
+        return None
+    for face, points in (("weft-faced", p == 0), ("warp-faced", p == 1)):
+        if np.all(points.sum(axis=1) == 1) and np.all(points.sum(axis=0) == 1):
+            cols = np.argmax(points, axis=1)
+            step = int((cols[1] - cols[0]) % n)
+            if step not in (1, n - 1) and gcd(step, n) == 1 and np.all((np.diff(cols) % n) == step):
+                return f"satin {n}/{step} {face}"
+    return None
+
+
+def _blocks(p: np.ndarray) -> str | None:
+    plain = np.array([[1, 0], [0, 1]], dtype=np.uint8)
+    n_e, n_a = p.shape
+    if n_e % 2 or n_a % 2:
+        return None
+    ke, ka = n_e // 2, n_a // 2
+    block = np.kron(plain, np.ones((ke, ka), dtype=np.uint8))
+    if not equal_up_to_shift(p, block):
+        return None
+    if ke == ka:
+        return f"basket {ke}/{ka}"
+    if min(ke, ka) == 1:
+        return f"rib {max(ke, ka)} ({'wefts' if ke > 1 else 'warps'} doubled)"
+    return None
+
+
+def weave_name(pattern: np.ndarray) -> str:
+    """A name for people: ``plain``, ``twill 2/1 Z``, ``satin 5/2 weft-faced``, ``basket 2/2``,
+    ``rib 2 (wefts doubled)`` or ``custom 4×6`` (the minimum repeat's wefts × warps)."""
+    p = minimal_repeat(pattern)
+    if p.shape == (2, 2) and p[0, 0] == p[1, 1] != p[0, 1] == p[1, 0]:
+        return "plain"
+    if p.shape == (1, 1) or min(p.shape) == 1:
+        return f"custom {p.shape[0]}×{p.shape[1]} (yarns that never interlace)"
+    for namer in (_twill, _satin, _blocks):
+        # try every cyclic shift of the rows: a twill or satin is recognised from any start
+        for i in range(p.shape[0]):
+            name = namer(np.roll(p, i, axis=0))
+            if name:
+                return name
+    return f"custom {p.shape[0]}×{p.shape[1]}"
