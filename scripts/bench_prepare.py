@@ -4,12 +4,17 @@
     .venv/bin/python scripts/bench_prepare.py               # 80 accuracy cases + speed
     .venv/bin/python scripts/bench_prepare.py --cases 200 --no-speed
     .venv/bin/python scripts/bench_prepare.py --realdata ../shared/realdata   # + real photos table
+    .venv/bin/python scripts/bench_prepare.py --forward 36 --no-accuracy --no-speed  # forward-model renders
 
 Accuracy: turned up to ±40°, camera pitch/yaw up to 10°, noise, blur, JPEG, vignetting, over
 plain, twills, satins 5 and 8, basket and a custom 6×4 repeat (tests/prepare/cases.py).
 Targets: median turn error ≤ 0.3°, max ≤ 1°; pitch error ≤ 2 %; repeat in yarns exact on
-≥ 90 %; residual skew ≤ 1 %. Speed: wall time of ``prepare_photo`` (photo already decoded)
-for a 1-megapixel and a 24-megapixel photo; targets ≤ 2 s and ≤ 6 s.
+≥ 90 %; residual skew ≤ 1 %. Forward: renders of weavecap's own forward model
+(tests/prepare/forward.py: random fabrics over Table 1 — plain, twill, satin, basket, rib and
+random patterns up to 8×8 — turned up to ±40°, perspective camera of 12°, noise, JPEG 90;
+the truth is the pattern's minimum repeat per axis), same targets but skew. Speed: wall time
+of ``prepare_photo`` (photo already decoded) for a 1-megapixel and a 24-megapixel photo;
+targets ≤ 2 s and ≤ 6 s.
 """
 
 from __future__ import annotations
@@ -31,6 +36,8 @@ sys.path.insert(0, str(HERE.parent))
 from cases import draw_cases, measure, render  # noqa: E402
 
 from weavecap.prepare import Prepared, prepare_photo  # noqa: E402
+
+FORWARD_FAMILIES = ("plain", "twill", "satin", "basket", "rib", "random")
 
 
 def accuracy(n: int, seed: int) -> bool:
@@ -66,6 +73,41 @@ def accuracy(n: int, seed: int) -> bool:
         print(f"    rejected {pat}: {why}")
     return (np.median(turn) <= 0.3 and turn.max() <= 1 and pitch.max() <= 0.02 and rep_all >= 0.9
             and skew.max() <= 0.01)
+
+
+def forward(n: int, seed: int, size: int) -> bool:
+    """Accuracy on ``n`` renders of the forward model (cycling over the pattern families)."""
+    from forward import forward_photo, measure_forward
+
+    rng = np.random.default_rng(seed)
+    rows, rejected, t_render, t_prep = [], [], 0.0, 0.0
+    for k in range(n):
+        t = time.perf_counter()
+        img, truth = forward_photo(rng, family=FORWARD_FAMILIES[k % len(FORWARD_FAMILIES)], size=size, seed=k)
+        t_render += time.perf_counter() - t
+        t = time.perf_counter()
+        r = prepare_photo(img)
+        t_prep += time.perf_counter() - t
+        if not isinstance(r, Prepared):
+            rejected.append((k, truth.family, truth.yarns, r.reason))
+            continue
+        m = measure_forward(r, truth)
+        rows.append(m)
+        if not m["repeat_ok"]:
+            print(f"    #{k} {truth.family} {truth.yarns[0]}×{truth.yarns[1]} "
+                  f"found {r.grid.yarns[0]}×{r.grid.yarns[1]} "
+                  f"(pitch {truth.pitch_px:.1f} px, turn {truth.rotate_deg:.1f}°)")
+    turn = np.array([m["turn_err"] for m in rows])
+    pitch = np.array([m["pitch_err"] for m in rows])
+    rep_all = sum(m["repeat_ok"] for m in rows) / n
+    print(f"forward model: {n} renders ({size} px, seed {seed}), rendering {t_render:.0f} s, prepare {t_prep:.0f} s; "
+          f"{len(rejected)} rejected")
+    print(f"  turn error      median {np.median(turn):.3f}°  max {turn.max():.3f}°   (target ≤ 0.3 / ≤ 1)")
+    print(f"  pitch error     median {100 * np.median(pitch):.2f} %  max {100 * pitch.max():.2f} %   (target ≤ 2 %)")
+    print(f"  repeat exact    {100 * rep_all:.1f} % of all renders   (target ≥ 90 %)")
+    for k, fam, yarns, why in rejected:
+        print(f"    rejected #{k} {fam} {yarns[0]}×{yarns[1]}: {why}")
+    return np.median(turn) <= 0.3 and turn.max() <= 1 and pitch.max() <= 0.02 and rep_all >= 0.9
 
 
 def big_photo(height: int, width: int, pitch: float, seed: int = 0) -> np.ndarray:
@@ -128,11 +170,15 @@ def main() -> int:
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--no-speed", action="store_true")
     ap.add_argument("--no-accuracy", action="store_true")
+    ap.add_argument("--forward", type=int, default=0, metavar="N", help="also N renders of the forward model")
+    ap.add_argument("--forward-size", type=int, default=512, help="side of those renders (px)")
     ap.add_argument("--realdata", metavar="DIR", help="also tabulate the real photos of DIR (shared/realdata)")
     a = ap.parse_args()
     ok = True
     if not a.no_accuracy:
         ok &= accuracy(a.cases, a.seed)
+    if a.forward:
+        ok &= forward(a.forward, a.seed, a.forward_size)
     if not a.no_speed:
         ok &= speed(a.repeats)
     if a.realdata:

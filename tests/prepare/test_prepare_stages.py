@@ -10,7 +10,7 @@ import pytest
 from synthetic import PATTERNS, render, residual_geometry
 
 from weavecap.prepare import PrepareConfig, Rejected, prepare_photo, rectify, regularize
-from weavecap.prepare.grid import axis_pitch, boundaries, folded_strength, repeat_along
+from weavecap.prepare.grid import axis_pitch, boundaries, folded_strength, refine_repeat, repeat_along
 from weavecap.prepare.illumination import flatten_illumination
 from weavecap.prepare.period import superposed_dmf
 
@@ -66,14 +66,14 @@ def test_dmf_dips_at_the_repeat():
     img = np.tile(row, (20, 1))
     d = superposed_dmf(img, axis=1)
     assert d[30] < 0.01 and d[10] > 0.1 and d[15] > 1.0
-    n, rep, depth = repeat_along(d, 10.0)
-    assert n == 3 and abs(rep - 30) < 0.2 and depth > 0.9
+    n, depth = repeat_along(d, 10.0)
+    assert n == 3 and abs(refine_repeat(d, 10.0, n) - 30) < 0.2 and depth > 0.9
 
 
 def test_repeat_along_reports_no_dip():
     rng = np.random.default_rng(0)
     d = superposed_dmf(rng.normal(size=(40, 200)), axis=1)
-    n, _, depth = repeat_along(d, 8.0)
+    n, depth = repeat_along(d, 8.0)
     assert n is None and depth < 0.3
 
 

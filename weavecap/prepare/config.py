@@ -83,8 +83,20 @@ class PrepareConfig:
     period_abs_tol: float = 0.04
     #: a dip counts as a repeat when 1 - d* reaches this (else: a single repeat in the photo)
     period_min_depth: float = 0.3
+    #: the cell DMF (period.cell_repeat): blocks per cell side whose mean colours and gradients
+    #: describe a cell
+    cell_blocks: int = 3
+    #: the repeat is the fewest yarns whose cell DMF d ≤ d* + tol·(d⁺ - d*), d* the lowest and
+    #: d⁺ the highest; a repeat shows when 1 - d*/d⁺ reaches min_depth and d⁺ - d* is z
+    #: standard errors
+    cell_tol: float = 0.1
+    cell_z: float = 3.0
+    cell_min_depth: float = 0.15
 
     # --- grid (§4.4) -------------------------------------------------------------------------
+    #: when the projections' pitch exceeds the coarse period this many times, the coarse period
+    #: was a harmonic of the yarns: rectify again from the projections' pitch
+    recoarse_ratio: float = 2.5
     #: the pitch is doubled (or tripled) while that explains this much more of the projection
     grid_octave_gain: float = 0.15
 

@@ -225,13 +225,50 @@ def boundaries(profile: np.ndarray, pitch: float, *, offset: float = 0.0,
     return np.asarray(out, float) + offset
 
 
-def repeat_along(dmf: np.ndarray, pitch: float, *, max_yarns: int = 64, rel_tol: float = 1.6,
-                 abs_tol: float = 0.04, min_depth: float = 0.3) -> tuple[int | None, float, float]:
-    """The minimum repeat along one axis as a whole number of yarns (§4.3).
+def refine_repeat(dmf: np.ndarray, pitch: float, yarns: int) -> float:
+    """The repeat in pixels, refined over all its multiples in the superposed pixel DMF (§4.3).
 
-    The superposed DMF dips at every whole number of repeats; only shifts that are whole
-    numbers of yarns are candidates. The repeat is the fewest yarns (≥ 2: a weave interlaces)
-    whose dip is about as deep as the deepest one (``d ≤ max(rel_tol·d*, d* + abs_tol)``).
+    The m-th dip of a repeat of ``yarns`` yarns lies near ``m·yarns·pitch``; each dip is found
+    within a fifth of a pitch and located to sub-pixel precision, and the repeat is the
+    least-squares slope of the dips against m (the pitch alone, times ``yarns``, where no whole
+    multiple fits in the DMF).
+
+    Parameters
+    ----------
+    dmf : (L,) normalised superposed DMF (:func:`~weavecap.prepare.period.superposed_dmf`).
+    pitch : yarn pitch along that axis (px).
+    yarns : the repeat in yarns (:func:`~weavecap.prepare.period.cell_repeat`).
+    """
+    d = np.asarray(dmf, np.float64)
+    L = len(d)
+    w = max(1.0, 0.2 * pitch)
+    ms, xs = [], []
+    m = 1
+    while m * yarns * pitch + w < L - 2:
+        center = m * yarns * pitch
+        lo, hi = max(1, int(np.floor(center - w))), min(L - 2, int(np.ceil(center + w)))
+        seg = np.arange(lo, hi + 1)
+        j = int(seg[np.argmin(d[seg])])
+        a, b, c = d[j - 1:j + 2]
+        den = a - 2 * b + c
+        ms.append(m)
+        xs.append(j + (float(np.clip(0.5 * (a - c) / den, -0.5, 0.5)) if den > 0 else 0.0))
+        m += 1
+    if not ms:
+        return float(yarns * pitch)
+    ms_, xs_ = np.array(ms, float), np.array(xs)
+    return float((ms_ * xs_).sum() / (ms_ ** 2).sum())
+
+
+def repeat_along(dmf: np.ndarray, pitch: float, *, max_yarns: int = 64, rel_tol: float = 1.6,
+                 abs_tol: float = 0.04, min_depth: float = 0.3) -> tuple[int | None, float]:
+    """The minimum repeat along one axis as a whole number of yarns, from the pixel DMF (§4.3).
+
+    Where the cells of the yarn grid show no repeat (:func:`~weavecap.prepare.period.cell_repeat`:
+    tiny or wavy yarns the cells do not follow), the superposed pixel DMF still dips at every
+    whole number of repeats; only shifts that are whole numbers of yarns are candidates. The
+    repeat is the fewest yarns (≥ 2: a weave interlaces) whose dip is about as deep as the
+    deepest one (``d ≤ max(rel_tol·d*, d* + abs_tol)``).
 
     Parameters
     ----------
@@ -240,42 +277,23 @@ def repeat_along(dmf: np.ndarray, pitch: float, *, max_yarns: int = 64, rel_tol:
 
     Returns
     -------
-    (yarns or None, repeat_px, depth): None when no dip reaches ``min_depth`` (the photo holds
-    at most one repeat along this axis); ``repeat_px`` is refined over all its multiples.
+    (yarns or None, depth): None when no dip reaches ``min_depth`` (the photo holds at most one
+    repeat along this axis); :func:`refine_repeat` gives the repeat in pixels.
     """
     d = np.asarray(dmf, np.float64)
     L = len(d)
     nmax = min(max_yarns, int((L - 2) / pitch))
     if nmax < 2:
-        return None, float("nan"), 0.0
+        return None, 0.0
     w = max(1.0, 0.2 * pitch)
-
-    def dip(center: float) -> tuple[float, float]:
-        lo, hi = max(1, int(np.floor(center - w))), min(L - 2, int(np.ceil(center + w)))
-        seg = np.arange(lo, hi + 1)
-        j = int(seg[np.argmin(d[seg])])
-        a, b, c = d[j - 1:j + 2]
-        den = a - 2 * b + c
-        x = j + (float(np.clip(0.5 * (a - c) / den, -0.5, 0.5)) if den > 0 else 0.0)
-        return float(d[j]), x
-
-    dips = [dip(n * pitch) for n in range(1, nmax + 1)]
-    vals = np.array([v for v, _ in dips])
+    vals = np.array([d[max(1, int(np.floor(n * pitch - w))):min(L - 2, int(np.ceil(n * pitch + w))) + 1].min()
+                     for n in range(1, nmax + 1)])
     best = float(vals[1:].min())
     if 1.0 - best < min_depth:
-        return None, float("nan"), float(1.0 - best)
+        return None, float(1.0 - best)
     limit = max(rel_tol * best, best + abs_tol)
     n = next(k for k in range(2, nmax + 1) if vals[k - 1] <= limit)
-    # refine: the m-th dip of the repeat lies at m·R
-    ms, xs = [], []
-    for m in range(1, nmax // n + 1):
-        v, x = dips[m * n - 1]
-        if v <= limit:
-            ms.append(m)
-            xs.append(x)
-    ms_, xs_ = np.array(ms, float), np.array(xs)
-    rep = float((ms_ * xs_).sum() / (ms_ ** 2).sum())
-    return n, rep, float(1.0 - vals[n - 1])
+    return n, float(1.0 - vals[n - 1])
 
 
 # ----------------------------------------------------------------------------- spectral lattice
@@ -364,3 +382,49 @@ def lattice_pitch(peaks: np.ndarray, *, known_pitch: float, axis: int, max_yarns
         if share >= min_share:
             return 1.0 / (n * u), share
     return None, 0.0
+
+
+# ----------------------------------------------------------------------------- cells
+
+def cell_features(image: np.ndarray, pitch_px: tuple[float, float], origin_px: tuple[float, float], *,
+                  sub: int) -> np.ndarray:
+    """What the weave sets in every whole cell of the yarn grid, as a vector (§4.3–4.4).
+
+    Each cell is cut into ``sub × sub`` blocks; a block gives its mean colour and its mean
+    absolute gradients along x and along y. The colours tell which yarn is on top where warps
+    and wefts differ; the gradients tell it where they look alike: the yarn on top runs on
+    through the crossing, so its edges do (a warp on top: edges along y, strong ∂/∂x). The
+    first block is centred on the cell's corner: the boundaries are the projections' valleys,
+    which are the gaps in a front-lit photo but the yarn centres where the gaps are lit from
+    behind, and either way some block then holds a crossing rather than a gap.
+
+    Parameters
+    ----------
+    image : (H, W, C) or (H, W) float array, rectified, lighting flattened, lightly smoothed.
+    pitch_px : (warp pitch along x, weft pitch along y).
+    origin_px : (y, x) of a cell corner (a pair of yarn boundaries).
+    sub : blocks per cell side.
+
+    Returns
+    -------
+    (Ny, Nx, sub·sub·(C + 2)) array: row i, column j is the cell of weft i and warp j.
+    """
+    img = np.asarray(image, np.float32)
+    if img.ndim == 2:
+        img = img[..., None]
+    h, w, ch = img.shape
+    px, py = pitch_px
+    oy, ox = (origin_px[0] - py / (2 * sub)) % py, (origin_px[1] - px / (2 * sub)) % px
+    nx, ny = int((w - ox) // px), int((h - oy) // py)
+    y0, x0 = int(round(oy)), int(round(ox))
+    y1, x1 = min(h, int(round(oy + ny * py))), min(w, int(round(ox + nx * px)))
+    if nx < 1 or ny < 1 or y1 <= y0 or x1 <= x0:
+        return np.zeros((max(ny, 0), max(nx, 0), sub * sub * (ch + 2)), np.float32)
+    grey = img.mean(axis=2)
+    grads = np.stack([np.abs(cv2.Sobel(grey, cv2.CV_32F, 1, 0)), np.abs(cv2.Sobel(grey, cv2.CV_32F, 0, 1))], axis=2)
+    parts = []
+    for layer in (img, grads):
+        small = cv2.resize(np.ascontiguousarray(layer[y0:y1, x0:x1]), (nx * sub, ny * sub),
+                           interpolation=cv2.INTER_AREA).reshape(ny, sub, nx, sub, -1)
+        parts.append(small.transpose(0, 2, 1, 3, 4).reshape(ny, nx, -1))
+    return np.concatenate(parts, axis=2)

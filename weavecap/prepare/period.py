@@ -2,46 +2,19 @@
 
 The distance matching function (DMF) of a row r at shift τ is the mean squared difference
 between r(x) and r(x + τ) [ANB12]. Summed over all rows (and, for the other axis, all
-columns) it dips to ~0 at every whole number of repeats. The repeat is the shortest deep dip
-with a sharp bottom (large second forward difference), refined to sub-pixel precision over
-all its multiples. A photo that holds a single repeat has no dip; that is reported as such
-rather than as an error.
+columns) it dips to ~0 at every whole number of repeats. A photo that holds a single repeat
+has no dip; that is reported as such rather than as an error.
+
+The number of yarns in the repeat is decided on the cells of the yarn grid rather than on
+pixels (:func:`cell_dmf`, :func:`cell_repeat`): a pixel DMF also compares what the weave does
+not set — plies and fibres whose phase along a yarn is not the repeat's, gaps that repeat at
+every yarn — and then dips nearly as deep at a divisor or a multiple of the repeat. The pixel
+DMF (:func:`superposed_dmf`) then only refines the repeat's length in pixels.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
-
-
-@dataclass(frozen=True)
-class AxisPeriod:
-    """The repeat along one image axis.
-
-    Attributes
-    ----------
-    period_px : the repeat in pixels, or None when no repeat shows (a single repeat, or no
-        periodic structure).
-    depth : 1 - DMF(period) / plateau, in [0, 1]; 1 is a perfect repeat. 0 when None.
-    dmf : (L,) the normalised superposed DMF (plateau ≈ 1) for shifts 0..L-1.
-    """
-
-    period_px: float | None
-    depth: float
-    dmf: np.ndarray
-
-
-@dataclass(frozen=True)
-class Period:
-    """The minimum repeat: ``y`` (height, along columns) and ``x`` (width, along rows)."""
-
-    y: AxisPeriod
-    x: AxisPeriod
-
-    @property
-    def repeat_px(self) -> tuple[float | None, float | None]:
-        return self.y.period_px, self.x.period_px
 
 
 def superposed_dmf(img: np.ndarray, *, axis: int = 1, max_shift: int | None = None) -> np.ndarray:
@@ -77,78 +50,88 @@ def superposed_dmf(img: np.ndarray, *, axis: int = 1, max_shift: int | None = No
     return d / (2 * var) if var > 0 else np.ones_like(d)
 
 
-def _parabola_min(d: np.ndarray, i: int) -> float:
-    if 0 < i < len(d) - 1:
-        a, b, c = d[i - 1], d[i], d[i + 1]
-        den = a - 2 * b + c
-        if den > 0:
-            return i + float(np.clip(0.5 * (a - c) / den, -0.5, 0.5))
-    return float(i)
+def detrend_cells(cells: np.ndarray) -> np.ndarray:
+    """Remove from every cell feature its smooth drift across the photo (a quadratic in the
+    cell indices): lighting and view angle change the look of a yarn slowly, the weave does
+    not, and a drift would make the DMF grow with the shift."""
+    c = np.asarray(cells, np.float64)
+    ny, nx, nf = c.shape
+    i, j = np.meshgrid(np.linspace(-1, 1, ny), np.linspace(-1, 1, nx), indexing="ij")
+    basis = np.stack([np.ones_like(i), i, j, i * i, j * j, i * j], axis=-1).reshape(-1, 6)
+    flat = c.reshape(-1, nf)
+    coef, *_ = np.linalg.lstsq(basis, flat, rcond=None)
+    return (flat - basis @ coef).reshape(ny, nx, nf)
 
 
-def axis_period(img: np.ndarray, *, axis: int, min_period: float = 3.0, min_depth: float = 0.35,
-                tolerance: float = 0.15) -> AxisPeriod:
-    """The minimum repeat of ``img`` along one axis (§4.3).
+def cell_dmf(cells: np.ndarray, *, axis: int, max_shift: int) -> tuple[np.ndarray, np.ndarray]:
+    """The DMF of the yarn-grid cells: mean squared difference of cell features ``n`` yarns apart.
 
-    Parameters
-    ----------
-    img : (H, W) float array, regularized or smoothed grey.
-    axis : 1 for the width (shifts along x), 0 for the height.
-    min_period : shortest repeat considered (px).
-    min_depth : a dip counts when its depth (1 - DMF) reaches this.
-    tolerance : among dips within ``tolerance`` of the deepest, the shortest wins (the others
-        are its multiples).
-
-    Returns
-    -------
-    :class:`AxisPeriod`.
-    """
-    d = superposed_dmf(img, axis=axis)
-    lo = int(np.ceil(min_period))
-    if len(d) < lo + 3:
-        return AxisPeriod(None, 0.0, d)
-    # local minima with their depth and the sharpness of their bottom (2nd forward difference)
-    i = np.arange(lo, len(d) - 1)
-    is_min = (d[i] <= d[i - 1]) & (d[i] <= d[i + 1])
-    mins = i[is_min]
-    if len(mins) == 0:
-        return AxisPeriod(None, 0.0, d)
-    # depth relative to the highest DMF value between the origin and the dip (the plateau)
-    depth = np.array([1.0 - d[k] / max(d[1:k + 1].max(), 1e-12) for k in mins])
-    ok = depth >= min_depth
-    if not np.any(ok):
-        return AxisPeriod(None, float(depth.max()), d)
-    best = depth[ok].max()
-    chosen = int(mins[ok][np.argmax(depth[ok] >= best - tolerance)])
-    p0 = _parabola_min(d, chosen)
-    # refine over multiples: the m-th dip lies at m·p
-    ms, ps = [1.0], [p0]
-    m = 2
-    while m * p0 < len(d) - 2:
-        c = int(round(m * p0))
-        w = max(1, int(round(0.15 * p0)))
-        seg = np.arange(max(lo, c - w), min(len(d) - 1, c + w + 1))
-        k = int(seg[np.argmin(d[seg])])
-        if 1.0 - d[k] / max(d[1:k + 1].max(), 1e-12) >= min_depth and 0 < k < len(d) - 1:
-            ms.append(float(m))
-            ps.append(_parabola_min(d, k))
-        m += 1
-    ms_, ps_ = np.array(ms), np.array(ps)
-    period = float((ms_ * ps_).sum() / (ms_ ** 2).sum())
-    return AxisPeriod(period, float(depth[list(mins).index(chosen)]), d)
-
-
-def find_period(img: np.ndarray, *, min_period: float = 3.0, min_depth: float = 0.35,
-                tolerance: float = 0.15) -> Period:
-    """The minimum repeat of a rectified weave image along both axes (§4.3).
+    The pixel DMF of §4.3 compares everything down to the fibres; a forward-model render or a
+    real yarn carries plies and fibres whose phase along the yarn is not that of the weave, and
+    gaps that repeat at every yarn. Compared cell by cell
+    (:func:`~weavecap.prepare.grid.cell_features`) only what the weave sets is left: which yarn
+    is on top, and how it is shaded. What varies along the shift axis alone (one weft brighter
+    than the next) is removed first: it says nothing about the repeat. Each feature is then
+    weighed by how well it repeats at its best shift, ``(1 - min_n d_f(n))²``: a feature that
+    repeats at no shift (the speckle of a gap, fibres) is noise, not weave.
 
     Parameters
     ----------
-    img : (H, W) float array: the rectified, illumination-flattened, smoothed grey image.
+    cells : (Ny, Nx, F) features of the cells (rows are wefts, columns warps), detrended.
+    axis : 0 compares cells ``n`` wefts apart (the repeat along y), 1 ``n`` warps apart.
+    max_shift : largest ``n`` (≥ 2).
 
     Returns
     -------
-    :class:`Period`; an axis whose ``period_px`` is None shows no repeat.
+    (dmf, se): (max_shift + 1,) arrays, the weighted mean squared difference at each shift,
+    each feature divided by twice its variance (≈ 1 for unrelated cells, 0 for a perfect
+    repeat), and its standard error over the cell pairs compared.
     """
-    kw = dict(min_period=min_period, min_depth=min_depth, tolerance=tolerance)
-    return Period(y=axis_period(img, axis=0, **kw), x=axis_period(img, axis=1, **kw))
+    c = np.asarray(cells, np.float64)
+    if axis == 1:
+        c = c.transpose(1, 0, 2)
+    # per-yarn offsets along the shift axis say nothing about the repeat; those across it
+    # cancel in every difference and would only swell the variance
+    c = c - c.mean(axis=1, keepdims=True) - c.mean(axis=0, keepdims=True) + c.mean(axis=(0, 1))
+    c = c / np.sqrt(np.maximum(2 * (c ** 2).mean(axis=(0, 1)), 1e-12))
+    n = c.shape[0]
+    shifts = range(1, min(max_shift, n - 1) + 1)
+    pairs = [((c[k:] - c[:n - k]) ** 2).reshape(-1, c.shape[2]) for k in shifts]
+    per_feature = np.array([p.mean(axis=0) for p in pairs])  # (shifts, F)
+    w = np.clip(1.0 - per_feature[1:].min(axis=0), 0.0, 1.0) ** 2
+    w = w / w.sum() if w.sum() > 0 else np.full_like(w, 1.0 / w.size)
+    d, se = [0.0], [0.0]
+    for p in pairs:
+        v = p @ w
+        d.append(float(v.mean()))
+        se.append(float(v.std() / np.sqrt(v.size)))
+    return np.array(d), np.array(se)
+
+
+def cell_repeat(cells: np.ndarray, *, axis: int, max_yarns: int, tol: float, z: float,
+                min_depth: float) -> tuple[int | None, float, np.ndarray]:
+    """The minimum repeat along one axis, in yarns, from the cell DMF (§4.3).
+
+    Only shifts up to half the cells are compared (a repeat must show twice). With d* the
+    lowest DMF (at two yarns or more: a weave interlaces) and d⁺ the highest, the repeat is the
+    fewest yarns whose DMF lies within ``tol`` of the way from d* to d⁺: its multiples are as
+    low, and a shift that is not a multiple changes whole cells (a twill of n shifted by n - 1
+    still changes two cells in n, far above ``tol``).
+
+    Returns
+    -------
+    (yarns or None, depth, dmf): depth = 1 - d*/d⁺; None when it is under ``min_depth`` or
+    d⁺ - d* is under ``z`` standard errors (the photo holds at most one repeat along this axis).
+    """
+    n_all = cells.shape[axis]
+    nmax = min(max_yarns, n_all // 2)
+    if nmax < 2:
+        return None, 0.0, np.ones(1)
+    d, se = cell_dmf(detrend_cells(cells), axis=axis, max_shift=nmax)
+    k_best, k_top = 2 + int(np.argmin(d[2:])), 1 + int(np.argmax(d[1:]))
+    best, top = float(d[k_best]), float(d[k_top])
+    depth = 1.0 - best / max(top, 1e-12)
+    if depth < min_depth or top - best < z * (se[k_best] + se[k_top]):
+        return None, depth, d
+    n = next(k for k in range(2, nmax + 1) if d[k] <= best + tol * (top - best))
+    return n, depth, d

@@ -1,13 +1,15 @@
 """Photo preparation (Wu et al. 2025 §4) as one call: :func:`prepare_photo`.
 
 rectify (§4.1) → flatten the lighting → Gaussian (σ = pitch/16) → integral projections give
-the yarn pitch along each axis (§4.4) → superposed DMFs give the minimum repeat as a whole
-number of yarns (§4.3) → kernel PCA over the repeats (§4.2) → yarn boundaries of the
-regularized image (§4.4). The order differs from the paper's list only in that the repeat is
-found before kernel PCA, whose patches are repeats. Where floats hide one family's yarn
-boundaries (a satin's flat projection along the floats), that axis's pitch comes from the
-lattice of spectral peaks (:func:`~weavecap.prepare.grid.lattice_pitch`) and must be
-confirmed by a repeat of the DMFs.
+the yarn pitch along each axis (§4.4) → the DMF of the yarn-grid cells gives the minimum
+repeat as a whole number of yarns, the superposed pixel DMFs its size in pixels (§4.3) →
+kernel PCA over the repeats (§4.2) → yarn boundaries of the regularized image (§4.4). The
+order differs from the paper's list only in that the repeat is found before kernel PCA, whose
+patches are repeats. Where the projections' pitch is several times the coarse period that
+chose the working resolution (a harmonic of thin yarns with sharp gaps), the photo is
+rectified again from that pitch. Where floats hide one family's yarn boundaries (a satin's
+flat projection along the floats), that axis's pitch comes from the lattice of spectral peaks
+(:func:`~weavecap.prepare.grid.lattice_pitch`) and must be confirmed by a repeat.
 
 A photo that is not a resolvable woven fabric is not fitted to noise: the result is then a
 :class:`Rejected` value with a reason a person can act on.
@@ -23,10 +25,10 @@ import cv2
 import numpy as np
 
 from .config import PrepareConfig
-from .grid import (AxisGrid, Grid, axis_pitch, boundaries, folded_strength, lattice_pitch, projection, refine_pitch,
-                   repeat_along, spectrum_peaks)
+from .grid import (AxisGrid, Grid, axis_pitch, boundaries, cell_features, folded_strength, lattice_pitch, projection,
+                   refine_pitch, refine_repeat, repeat_along, spectrum_peaks)
 from .illumination import flatten_illumination, luminance
-from .period import superposed_dmf
+from .period import cell_repeat, superposed_dmf
 from .rectify import Rectification, rectify
 from .regularize import Regularized, gaussian, regularize
 
@@ -183,6 +185,57 @@ def _lattice_pitches(smooth: np.ndarray, pitches: list, strengths: list,
     return out
 
 
+def _light_sigma(pitch_px: float, config: PrepareConfig) -> float:
+    """σ (rectified px) of the low-pass that estimates the lighting of the rectified photo."""
+    return config.illumination_sigma_pitches * max(pitch_px, 2.0) * 2
+
+
+def _projections(rect: Rectification, config: PrepareConfig) -> tuple[np.ndarray, list, list, list, list]:
+    """Flatten the lighting of the rectified photo, smooth it (σ = pitch/16, §4.2) and measure
+    the yarn pitch of its integral projections along x and y (§4.4).
+
+    Returns
+    -------
+    (smooth, pitches, strengths, contrasts, profiles): the smoothed grey image and, per axis
+    (x: warps, then y: wefts), the pitch (px, None when no period), the periodicity of the
+    projection at it (:func:`~weavecap.prepare.grid.folded_strength`), its share of the
+    image's structure, and the projection itself.
+    """
+    r_img = rect.image
+    rh_, rw_ = r_img.shape[:2]
+    p_guess = rect.coarse_pitch_px * rect.scale
+    r_flat, _ = flatten_illumination(luminance(r_img), sigma_px=_light_sigma(p_guess, config))
+    r_flat = r_flat / max(float(r_flat.mean()), 1e-12)
+    smooth = gaussian(r_flat, config.gaussian_sigma_pitch * p_guess)
+    sd_img = float(smooth.std()) or 1.0
+    pitches, strengths, contrasts, profiles = [], [], [], []
+    for axis, length in ((0, rw_), (1, rh_)):  # axis 0: column means → warps along x
+        prof = projection(smooth, axis=axis)
+        per, s = axis_pitch(prof, min_period=2.0, max_period=max(2.5, length / config.min_yarns_in_photo),
+                            octave_gain=config.grid_octave_gain)
+        if per is not None:
+            per = refine_pitch(prof, per)
+            s = folded_strength(prof, per)
+        pitches.append(per)
+        strengths.append(s)
+        contrasts.append(float(prof.std()) / sd_img)
+        profiles.append(prof)
+    return smooth, pitches, strengths, contrasts, profiles
+
+
+def _cells(r_img: np.ndarray, pitch_px: tuple[float, float], origin_px: tuple[float, float], p_guess: float,
+           config: PrepareConfig) -> np.ndarray:
+    """Features of the yarn-grid cells of the rectified photo's centre crop (at most
+    ``period_max_px``; lighting flattened, Gaussian of §4.2) for the cell DMF of §4.3:
+    :func:`~weavecap.prepare.grid.cell_features`."""
+    h, w = r_img.shape[:2]
+    y0, x0 = (h - min(h, config.period_max_px)) // 2, (w - min(w, config.period_max_px)) // 2
+    crop = _central(r_img, config.period_max_px)
+    flat, _ = flatten_illumination(crop, sigma_px=_light_sigma(p_guess, config))
+    flat = gaussian(flat, config.gaussian_sigma_pitch * p_guess)
+    return cell_features(flat, pitch_px, (origin_px[0] - y0, origin_px[1] - x0), sub=config.cell_blocks)
+
+
 def _central(img: np.ndarray, side: int) -> np.ndarray:
     h, w = img.shape[:2]
     bh, bw = min(h, side), min(w, side)
@@ -243,26 +296,21 @@ def prepare_photo(rgb: np.ndarray, config: PrepareConfig = PrepareConfig(), *,
     # --- lighting, Gaussian, projections → pitch (§4.4) -------------------------------------
     say("measuring the yarn grid")
     t = time.perf_counter()
+    smooth, pitches, strengths, contrasts, profiles = _projections(rect, config)
+    # the coarse period was a harmonic of the yarns (thin yarns, sharp gaps): the working
+    # resolution and the perspective were chosen for yarns that are not there; do it again
+    known = [p / rect.scale for p in pitches if p is not None]
+    if known and min(known) > config.recoarse_ratio * rect.coarse_pitch_px:
+        checks.update(first_coarse_pitch_px=rect.coarse_pitch_px)
+        t_again = time.perf_counter()
+        rect = rectify(rgb, config=config, pitch_px=min(known)) or rect
+        timings["rectify"] += time.perf_counter() - t_again
+        checks.update(skew_deg=rect.skew_deg, radon_contrast=rect.notes["radon"]["contrast"],
+                      perspective=rect.perspective)
+        smooth, pitches, strengths, contrasts, profiles = _projections(rect, config)
     r_img = rect.image
     rh_, rw_ = r_img.shape[:2]
     p_guess = rect.coarse_pitch_px * rect.scale
-    r_grey = luminance(r_img)
-    r_flat, _ = flatten_illumination(r_grey, sigma_px=config.illumination_sigma_pitches * max(p_guess, 2.0) * 2)
-    r_flat = r_flat / max(float(r_flat.mean()), 1e-12)
-    smooth = gaussian(r_flat, config.gaussian_sigma_pitch * p_guess)
-    sd_img = float(smooth.std()) or 1.0
-    pitches, strengths, contrasts, profiles = [], [], [], []
-    for axis, length in ((0, rw_), (1, rh_)):  # axis 0: column means → warps along x
-        prof = projection(smooth, axis=axis)
-        per, s = axis_pitch(prof, min_period=2.0, max_period=max(2.5, length / config.min_yarns_in_photo),
-                            octave_gain=config.grid_octave_gain)
-        if per is not None:
-            per = refine_pitch(prof, per)
-            s = folded_strength(prof, per)
-        pitches.append(per)
-        strengths.append(s)
-        contrasts.append(float(prof.std()) / sd_img)
-        profiles.append(prof)
     checks.update(grid_strength=strengths, grid_contrast=contrasts)
     if any(p is None for p in pitches):
         timings["grid"] = time.perf_counter() - t
@@ -305,17 +353,26 @@ def prepare_photo(rgb: np.ndarray, config: PrepareConfig = PrepareConfig(), *,
         timings["grid"] = time.perf_counter() - t
         return reject
 
-    # --- §4.3 minimum repeat: superposed DMFs at whole numbers of yarns ---------------------
+    # --- §4.3 minimum repeat: DMF of the yarn-grid cells, refined by the pixel DMFs ----------
     say("finding the repeat")
+    xb = boundaries(profiles[0], px)
+    yb = boundaries(profiles[1], py)
+    origin = (float(yb[0]) if len(yb) else 0.0, float(xb[0]) if len(xb) else 0.0)
+    cells = _cells(r_img, (px, py), origin, p_guess, config)
     crop = _central(smooth, config.period_max_px).astype(np.float64)
-    reps, found, depths = [], [], []
+    reps, found, depths, sources = [], [], [], []
     for axis, pitch, length in ((0, py, rh_), (1, px, rw_)):  # axis 0: shifts along y → wefts
+        n, depth, _ = cell_repeat(cells, axis=axis, max_yarns=config.max_repeat_yarns, tol=config.cell_tol,
+                                  z=config.cell_z, min_depth=config.cell_min_depth)
         # what varies along the shift axis alone (yarn to yarn brightness, the yarn profile)
         # says nothing about the repeat; without it a satin's rare interlacings stand out
-        resid = crop - crop.mean(axis=1 - axis, keepdims=True)
-        dmf = superposed_dmf(resid, axis=axis)
-        n, rep, depth = repeat_along(dmf, pitch, max_yarns=config.max_repeat_yarns, rel_tol=config.period_rel_tol,
-                                     abs_tol=config.period_abs_tol, min_depth=config.period_min_depth)
+        dmf = superposed_dmf(crop - crop.mean(axis=1 - axis, keepdims=True), axis=axis)
+        source = "cells"
+        if n is None:  # the cells do not follow the yarns: the pixel DMF at whole numbers of yarns
+            n, depth = repeat_along(dmf, pitch, max_yarns=config.max_repeat_yarns, rel_tol=config.period_rel_tol,
+                                    abs_tol=config.period_abs_tol, min_depth=config.period_min_depth)
+            source = "pixels" if n is not None else "none"
+        sources.append(source)
         depths.append(depth)
         if n is None:  # a single repeat along this axis: all whole yarns of the photo
             n = int(np.floor(length / pitch))
@@ -323,7 +380,8 @@ def prepare_photo(rgb: np.ndarray, config: PrepareConfig = PrepareConfig(), *,
             reps.append((n, n * pitch))
         else:
             found.append(True)
-            reps.append((n, rep))
+            reps.append((n, refine_repeat(dmf, pitch, n)))
+    checks.update(repeat_from=sources)
     checks.update(repeat_depth=depths)
     (ny, rep_h), (nx, rep_w) = reps
     unconfirmed = [axis for axis, fl, fd in (("x", from_lattice[0], found[1]), ("y", from_lattice[1], found[0]))
@@ -340,11 +398,6 @@ def prepare_photo(rgb: np.ndarray, config: PrepareConfig = PrepareConfig(), *,
     if found[1] and abs(rep_w / nx / px - 1) < 0.03:
         px = rep_w / nx
     timings["grid"] = time.perf_counter() - t
-
-    # --- yarn boundaries over the whole rectified image (§4.4) ------------------------------
-    xb = boundaries(profiles[0], px)
-    yb = boundaries(profiles[1], py)
-    origin = (float(yb[0]) if len(yb) else 0.0, float(xb[0]) if len(xb) else 0.0)
 
     # --- §4.2 regularization over whole repeats ---------------------------------------------
     say("regularizing")

@@ -1,0 +1,81 @@
+"""Preparation on renders of weavecap's own forward model (issue 3's test data).
+
+The forward model draws plies and fibres along each yarn, lights the gaps from behind and
+gives warps and wefts their own colours and radii; the repeat must still come out as the
+pattern's, in yarns. (``scripts/bench_prepare.py --forward N`` measures the same on more.)
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from forward import forward_photo, measure_forward, minimum_repeat
+
+from weavecap.estimate.sampling import satin, twill
+from weavecap.photo import load_photo
+from weavecap.prepare import Prepared, prepare_photo
+from weavecap.prepare.period import cell_repeat
+
+FIXTURES = Path(__file__).resolve().parents[2] / "fixtures"
+
+
+# ------------------------------------------------------------------ the cell DMF (§4.3)
+
+def _cells(pattern: np.ndarray, tiles: tuple[int, int], rng: np.random.Generator) -> np.ndarray:
+    """Cell features of a tiled pattern: which yarn is on top (in several features), plus noise
+    and a stripe along every weft whose phase is not the repeat's (a ply)."""
+    p = np.tile(pattern, tiles).astype(float)
+    ny, nx = p.shape
+    ply = np.sin(2 * np.pi * np.arange(nx) / 2.7)[None, :] * rng.uniform(0.5, 1.0, (ny, 1))
+    feats = [p, 1 - p, 0.6 * p + 0.4 * ply, ply]
+    return np.stack(feats, axis=2) + rng.normal(0, 0.15, (ny, nx, len(feats)))
+
+
+@pytest.mark.parametrize("pattern", [twill(2, 1, step=1), satin(5, 2), satin(8, 3), twill(4, 3, step=1),
+                                     np.array([[1, 0, 0, 1, 1, 0], [0, 1, 1, 0, 0, 1], [1, 1, 0, 0, 1, 0],
+                                               [0, 0, 1, 1, 0, 1]])])
+def test_cell_repeat_finds_the_pattern_repeat(pattern):
+    rng = np.random.default_rng(3)
+    cells = _cells(pattern, (4, 4), rng)
+    found = [cell_repeat(cells, axis=a, max_yarns=48, tol=0.1, z=3.0, min_depth=0.15)[0] for a in (0, 1)]
+    assert tuple(found) == pattern.shape
+
+
+def test_cell_repeat_reports_no_repeat_in_noise():
+    cells = np.random.default_rng(0).normal(size=(20, 20, 12))
+    assert cell_repeat(cells, axis=1, max_yarns=48, tol=0.1, z=3.0, min_depth=0.15)[0] is None
+
+
+def test_minimum_repeat_of_a_pattern_with_identical_rows():
+    p = np.array([[1, 0, 0], [0, 1, 1], [1, 0, 0], [0, 1, 1]])
+    assert minimum_repeat(p) == (2, 3)
+    assert minimum_repeat(satin(5, 2)) == (5, 5)
+
+
+# ------------------------------------------------------------------ forward-model renders
+
+@pytest.mark.parametrize("seed, pattern", [
+    (1, twill(2, 1, step=1)),
+    (3, np.array([[1, 0, 0, 1, 1, 0], [0, 1, 1, 0, 0, 1], [1, 1, 0, 0, 1, 0], [0, 0, 1, 1, 0, 1]])),
+])
+def test_forward_model_render(seed, pattern):
+    img, truth = forward_photo(np.random.default_rng(seed), pattern=pattern, size=256, spp=4, max_turn_deg=40.0,
+                               pitch_px=(9.0, 12.0))
+    r = prepare_photo(img)
+    assert isinstance(r, Prepared), r.reason
+    m = measure_forward(r, truth)
+    assert m["repeat_ok"], (r.grid.yarns, truth.yarns)
+    assert m["pitch_err"] <= 0.02 and m["turn_err"] <= 1.0, m
+
+
+@pytest.mark.parametrize("name", sorted(p.stem for p in (FIXTURES / "photos").glob("*.png")))
+def test_fixture_photo_gives_its_pattern_shape(name):
+    """Every photo in fixtures/photos (``weavecap synth`` of fixtures/params) gives the minimum
+    repeat of its params file's pattern."""
+    pattern = np.array(json.loads((FIXTURES / "params" / f"{name}.json").read_text())["pattern"])
+    r = prepare_photo(load_photo(FIXTURES / "photos" / f"{name}.png").rgb)
+    assert isinstance(r, Prepared), r.reason
+    assert tuple(r.grid.yarns) == minimum_repeat(pattern)
