@@ -13,7 +13,6 @@ as the repeat tiles). Without it the sharp, bright gaps between yarns would domi
 from __future__ import annotations
 
 import numpy as np
-from scipy.ndimage import gaussian_filter
 
 from ..params import Fabric
 
@@ -59,12 +58,9 @@ class RepeatRenderer:
 
     def render(self) -> np.ndarray:
         """(n_e * cell_px, n_a * cell_px, 3) float32 linear RGB, blurred by ``blur_cells``."""
-        from ..model.render import render_numpy
+        from ..model.render import blur, render_numpy
 
-        image = render_numpy(self.scene)
-        if self.blur_px > 0:
-            image = gaussian_filter(image, (self.blur_px, self.blur_px, 0), mode="wrap")
-        return image
+        return blur(render_numpy(self.scene), self.blur_px)
 
     def coverage(self) -> np.ndarray:
         """(n_e * cell_px, n_a * cell_px) fraction of each pixel's samples that hit a yarn (unblurred)."""
