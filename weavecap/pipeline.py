@@ -121,6 +121,37 @@ def align_cells(image: np.ndarray, cells):
     return best
 
 
+def register_cells(image: np.ndarray, cells, fabric: wparams.Fabric, *, light: str, c: int = 16):
+    """Move ``cells`` so that the photo's repeat lines up with a render of ``fabric``.
+
+    The cells found from §4.4's boundaries can sit a fraction of a yarn off (uneven lighting,
+    bright gaps, residual perspective), and then no parameter values fit. The photo's cell
+    canvas and the render are both one period of the fabric, so their circular
+    cross-correlation (one FFT) peaks at the shift between them; the cells move by that shift
+    (sub-pixel, by a parabola through the peak), whole cells included, so the fabric's pattern
+    stays right for the moved cells. Returns the moved CellGrid and the shift in cells (dy, dx).
+    """
+    from .estimate.cells import CellGrid, cell_canvas
+    from .estimate.forward import RepeatRenderer
+
+    photo = cell_canvas(image, cells, c).mean(axis=2)
+    model = RepeatRenderer(fabric, cell_px=c, light=light).render().mean(axis=2)
+    a, b = photo - photo.mean(), model - model.mean()
+    corr = np.real(np.fft.ifft2(np.fft.fft2(a) * np.conj(np.fft.fft2(b))))
+    iy, ix = np.unravel_index(int(np.argmax(corr)), corr.shape)
+
+    def peak(values: np.ndarray, i: int) -> float:
+        n = values.size
+        lo, mid, hi = values[(i - 1) % n], values[i], values[(i + 1) % n]
+        den = lo - 2 * mid + hi
+        k = i + (0.5 * (lo - hi) / den if den < 0 else 0.0)
+        return k - n if k > n / 2 else k
+
+    dy, dx = peak(corr[:, ix], iy) / c, peak(corr[iy, :], ix) / c
+    moved = CellGrid(rows=cells.rows + dy * np.diff(cells.rows).mean(), cols=cells.cols + dx * np.diff(cells.cols).mean())
+    return moved, (float(dy), float(dx))
+
+
 def dual(fabric: wparams.Fabric) -> wparams.Fabric:
     """The fabric with every cell's state flipped and the warp's and weft's colours and radii
     exchanged: in each cell the other yarn family is on top, in the colour that was there. A
@@ -259,6 +290,8 @@ def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), 
 
     config = options.config
     c = cell_px_for(config, shape)
+    cells, shift = register_cells(prepared.regularized.image, cells, start, light=options.light, c=c)
+    report.setdefault("pre_estimation", {})["cell_shift"] = [round(v, 3) for v in shift]
     target = cell_canvas(prepared.regularized.image, cells, c)
     fixed = frozenset({"pattern"}) if options.pattern is not None else frozenset()
     say(f"fitting ({options.quality}: up to {config.iterations} steps"
