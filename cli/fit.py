@@ -57,6 +57,7 @@ def _run_one(photo: str, folder: str, options, threads: int | None) -> tuple[dic
     """Capture one photo into ``folder``; never raises (a failure is a report). Runs in a
     worker process with ``--jobs``."""
     from weavecap.errors import WeavecapError
+    from weavecap.io import atomic_write_text
     from weavecap.pipeline import base_report, capture, write_capture
 
     if threads:
@@ -81,8 +82,6 @@ def _run_one(photo: str, folder: str, options, threads: int | None) -> tuple[dic
     report = base_report(photo, options)
     report.update(status="failed" if status == "invalid" else status, reason=reason,
                   timings_s={"total": round(time.perf_counter() - t0, 3)})
-    from weavecap.io import atomic_write_text
-
     Path(folder).mkdir(parents=True, exist_ok=True)
     atomic_write_text(Path(folder) / "report.json", json.dumps(report, indent=1) + "\n")
     return report, code

@@ -109,12 +109,13 @@ def table(results: list[dict]) -> str:
 
 
 def main(argv: list[str] | None = None) -> None:
+    """``python -m weavecap.bench --child CASE``: measure one case, print it as JSON (what
+    :func:`run_cold` runs in a fresh process)."""
     argv = sys.argv[1:] if argv is None else argv
-    if argv[:1] == ["--child"]:
-        case = next(c for c in CASES if c.name == argv[1])
-        print(json.dumps(measure(case)))
-        return
-    print(table([run_cold(case) for case in CASES]))
+    if argv[:1] != ["--child"] or len(argv) != 2:
+        raise SystemExit("usage: python -m weavecap.bench --child CASE (use `weavecap bench`)")
+    case = next(c for c in CASES if c.name == argv[1])
+    print(json.dumps(measure(case)))
 
 
 if __name__ == "__main__":

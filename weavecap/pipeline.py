@@ -86,7 +86,7 @@ def _repeat_cells(prepared, image_box: tuple[float, float, float, float]):
     # move the repeat by whole repeats so that it starts inside the box
     dy = y0 + np.mod(rows[0] - y0, rh) - rows[0]
     dx = x0 + np.mod(cols[0] - x0, rw) - cols[0]
-    return CellGrid(rows=rows + dy - y0, cols=cols + dx - x0), (dy, dx)
+    return CellGrid(rows=rows + dy - y0, cols=cols + dx - x0)
 
 
 def align_cells(image: np.ndarray, cells):
@@ -219,13 +219,14 @@ def _better_of_dual(start: wparams.Fabric, target: np.ndarray, light: str, spp: 
     return options[name], scores[name][0], {"chosen": name, **{k: round(v[1], 6) for k, v in scores.items()}}
 
 
-def _pattern_confidence(fs, target: np.ndarray, spp: int, blur_px: float) -> float:
-    """Fraction of cells whose fitted state explains the photo better than its opposite."""
+def _pattern_confidence(fs, rendered: np.ndarray, target: np.ndarray, spp: int, blur_px: float) -> float:
+    """Fraction of cells whose fitted state (``rendered``, blurred) explains the photo better
+    than its opposite (one more render, of the complement pattern)."""
     from .estimate.cells import cell_errors
     from .model.render import blur, render_numpy
 
     pattern = fs.fabric.pattern.copy()
-    now = cell_errors(blur(render_numpy(fs, spp=spp), blur_px), target, pattern.shape)
+    now = cell_errors(rendered, target, pattern.shape)
     fs.set("pattern", 1 - pattern)
     flipped = cell_errors(blur(render_numpy(fs, spp=spp), blur_px), target, pattern.shape)
     fs.set("pattern", pattern)
@@ -233,8 +234,8 @@ def _pattern_confidence(fs, target: np.ndarray, spp: int, blur_px: float) -> flo
 
 
 def base_report(photo_path: str | Path, options: CaptureOptions) -> dict:
-    """A report.json with every part the contract requires, before anything is known (the
-    parts are filled as the stages finish; a photo that fails early keeps the placeholders)."""
+    """A report.json holding every part the contract requires, with neutral values: each stage
+    overwrites its part as it finishes, so a photo that stops early still has a valid report."""
     return {"format": REPORT_FORMAT, "input": {"path": str(photo_path), "sha256": "", "width": 0, "height": 0},
             "status": "failed", "rectification": {"rotation_deg": 0.0, "homography": np.eye(3).tolist()},
             "grid": {"repeat_px": [0, 0], "pitch_px": [0, 0], "yarns": [0, 0]},
@@ -291,7 +292,7 @@ def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), 
         return _rejected(report, prepared.reason, prepared.code, timings, t0)
     prep = prepared.to_json()
     report["rectification"], report["grid"] = prep["rectification"], prep["grid"]
-    cells, _ = _repeat_cells(prepared, prepared.regularized.box)
+    cells = _repeat_cells(prepared, prepared.regularized.box)
     cells = align_cells(prepared.regularized.image, cells)
     shape = cells.shape
     if options.pattern is not None and options.pattern.shape != shape:
@@ -335,7 +336,7 @@ def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), 
     t = time.perf_counter()
     fs = build_scene(result.fabric, View(tiles=(1, 1), size=max(target.shape[:2]), spp=config.spp), light=options.light)
     rendered = blur(render_numpy(fs), blur_px)
-    confidence = _pattern_confidence(fs, target, config.spp, blur_px)
+    confidence = _pattern_confidence(fs, rendered, target, config.spp, blur_px)
     photo_canvas = cell_canvas(prepared.rectification.image, photo_cells, c)
     noise = fit_noise(photo_canvas - rendered, pitch_px=float(c), seed=options.seed)
     fabric = dataclasses.replace(result.fabric, noise=noise) if noise["gaussians"] else result.fabric
