@@ -3,6 +3,9 @@
 - the working resolution follows the *finest* strong period (the yarns), not the strongest
   (a twill's diagonal, a satin's lattice of interlacings);
 - among equally strong pairs of line families the squarest one is the yarns;
+- a lattice line family of the harmonics a few degrees off a yarn family (thin sharp gaps)
+  does not take its place: the fine re-check moves to the yarns, and once the pitch is
+  measured the Radon is tuned to the yarn frequency;
 - a satin whose floats hide one family's yarn boundaries still has its pitch, from the
   lattice of spectral peaks.
 """
@@ -51,6 +54,41 @@ def test_squarest_of_equally_strong_pairs_wins():
     assert thetas[rectify_mod._squarest_pair(pair, thetas, tie=0.85)] == 2
     pair = 0.01 + bumps([(31, 1.0), (121, 1.0), (2, 0.5), (92, 0.5)])
     assert thetas[rectify_mod._squarest_pair(pair, thetas, tie=0.85)] == 31
+
+
+def _radon_grating(theta_deg: float, period: float, n: int = 320) -> np.ndarray:
+    """Cosine lines whose Radon variance (skimage's angle convention) peaks at ``theta_deg``."""
+    yy, xx = np.indices((n, n), dtype=float) - (n - 1) / 2
+    t = np.deg2rad(theta_deg)
+    return np.cos(2 * np.pi * (xx * np.cos(t) - yy * np.sin(t)) / period).astype(np.float32)
+
+
+def test_recheck_moves_off_a_harmonic_lattice_line():
+    """Forward-model renders with thin bright gaps (bench sweep, seed 7, #9 and #25): the coarse
+    Radon picked a line family of the repeat's lattice at the third harmonic, 3.2° off the weak
+    weft family, and the weft pitch came out 64 % wrong."""
+    img = _radon_grating(3.0, 8) + 0.5 * _radon_grating(96.0, 8) + 0.25 * _radon_grating(92.8, 8 / 3)
+    edge = rectify_mod._disc(rectify_mod._laplacian_edges(img), 320)
+    first, second = rectify_mod._recheck_pair(edge, [92.8, 3.0], PrepareConfig())
+    assert abs(first - 96.0) < 0.2 and abs(second - 3.0) < 0.2
+
+
+def test_recheck_keeps_an_ambiguous_choice():
+    img = _radon_grating(3.0, 8) + 0.5 * _radon_grating(96.0, 8) + 0.48 * _radon_grating(92.8, 8)
+    edge = rectify_mod._disc(rectify_mod._laplacian_edges(img), 320)
+    first, _ = rectify_mod._recheck_pair(edge, [92.8, 3.0], PrepareConfig())
+    assert abs(first - 92.8) < 0.3
+
+
+def test_measured_pitch_tunes_the_radon_to_the_yarns():
+    """With the pitch measured, a harmonic lattice line stronger than the weak yarn family under
+    the plain Laplacian no longer wins (forward-model render, seed 7, #25)."""
+    img = _radon_grating(3.0, 8) + 0.3 * _radon_grating(96.0, 8) + 0.25 * _radon_grating(92.8, 8 / 2.2)
+    lap = rectify_mod._disc(rectify_mod._laplacian_edges(img), 320)
+    assert rectify_mod._radon_variance(lap, np.array([92.8]))[0] > rectify_mod._radon_variance(lap, np.array([96.0]))[0]
+    ang = rectify_mod.dominant_angles(img, pitch_px=8.0, band=True)
+    assert abs(ang["horizontal_deg"] - (90.0 - 96.0)) < 0.3, ang
+    assert abs(ang["vertical_deg"] - 87.0) < 0.3, ang
 
 
 def test_lattice_pitch_of_an_ideal_satin():

@@ -42,6 +42,9 @@ class PrepareConfig:
     radon_pair_skew_deg: float = 4.0
     #: pairs scoring at least this share of the best are equally good; the squarest one wins
     radon_pair_tie: float = 0.85
+    #: σ of the Gaussian before the Laplacian of the Radon once the yarn pitch is measured, in
+    #: pitches: the filter's gain then peaks at the yarn frequency (1/(π·√2·σ)), not its harmonics
+    radon_band_sigma_pitch: float = 0.225
     #: Radon: disc diameter, half-width and step of the fine search around each yarn direction
     radon_fine_diameter_px: int = 320
     radon_fine_halfwidth_deg: float = 1.5

@@ -358,9 +358,13 @@ def _radon_variance(edge: np.ndarray, thetas: np.ndarray) -> np.ndarray:
     return prof.var(axis=0)
 
 
-def _laplacian_edges(img: np.ndarray) -> np.ndarray:
-    """Laplacian of a lightly smoothed image: the yarn edges, without broad highlights."""
-    g = cv2.GaussianBlur(img.astype(np.float32), (0, 0), 0.7)
+def _laplacian_edges(img: np.ndarray, *, sigma_px: float = 0.7) -> np.ndarray:
+    """Laplacian of a Gaussian-smoothed image: the yarn edges, without broad highlights.
+
+    ``sigma_px`` is the Gaussian's σ in pixels; the filter's gain peaks at the frequency
+    1/(π·√2·σ) cycles/px (the default keeps every edge).
+    """
+    g = cv2.GaussianBlur(img.astype(np.float32), (0, 0), sigma_px)
     return cv2.Laplacian(g, cv2.CV_32F, ksize=3)
 
 
@@ -372,6 +376,36 @@ def _parabola_peak(x: np.ndarray, y: np.ndarray) -> float:
         if den < 0:
             return float(x[i] + 0.5 * (a - c) / den * (x[1] - x[0]))
     return float(x[i])
+
+
+def _recheck_pair(edge: np.ndarray, refined: list[float], config: PrepareConfig) -> list[float]:
+    """Move each of the two refined Radon angles (degrees) to the strongest line family within
+    the skew window around the square of the other, where that one is clearly stronger (§4.1).
+
+    A lattice is a family of lines along each of its lattice vectors: next to a yarn direction,
+    at atan(1/j) for the j-th lattice line of an n-yarn repeat, lie line families at about j/n
+    times the yarn frequency. Thin, sharp gaps make these harmonics strong, and the coarse
+    search (1° steps, a small disc) can pick one a few degrees off the yarns; the fine disc
+    separates them. A move needs the new family to reach ``1 / radon_pair_tie`` times the old
+    one, so that a broad, ambiguous peak (hairy yarns) keeps the coarse choice.
+
+    Parameters
+    ----------
+    edge : (D, D) Laplacian in a disc (:func:`_disc`).
+    refined : [first, second] Radon angles (degrees).
+
+    Returns
+    -------
+    [first, second], each moved or not.
+    """
+    out = list(refined)
+    ts0 = np.arange(-config.radon_pair_skew_deg, config.radon_pair_skew_deg + 1e-9, config.radon_fine_step_deg)
+    for i in (1, 0):
+        ts = np.concatenate([[out[i]], out[1 - i] + 90.0 + ts0])
+        var = _radon_variance(edge, ts)
+        if var[1:].max() * config.radon_pair_tie > var[0]:
+            out[i] = _parabola_peak(ts[1:], var[1:]) % 180.0
+    return out
 
 
 def _squarest_pair(pair: np.ndarray, thetas: np.ndarray, *, tie: float) -> int:
@@ -394,13 +428,19 @@ def _squarest_pair(pair: np.ndarray, thetas: np.ndarray, *, tie: float) -> int:
     return min(good, key=lambda i: (off_axis(i), -pair[i]))
 
 
-def dominant_angles(img: np.ndarray, *, pitch_px: float, config: PrepareConfig = PrepareConfig()) -> dict:
+def dominant_angles(img: np.ndarray, *, pitch_px: float, band: bool = False,
+                    config: PrepareConfig = PrepareConfig()) -> dict:
     """The two yarn directions of a weave, by the Radon transform of its Laplacian (§4.1).
 
     Parameters
     ----------
     img : (H, W) float array, illumination-flattened grey, free of perspective.
     pitch_px : the approximate yarn pitch in ``img`` pixels.
+    band : ``pitch_px`` is a measured yarn pitch (not a texture period that may be one of its
+        harmonics): the Laplacian is then taken of a Gaussian tuned to it
+        (``radon_band_sigma_pitch``), which keeps the yarn frequency and drops the harmonics,
+        where line families of the repeat's lattice lie a few degrees off the yarns (see
+        :func:`_recheck_pair`).
 
     Returns
     -------
@@ -411,7 +451,8 @@ def dominant_angles(img: np.ndarray, *, pitch_px: float, config: PrepareConfig =
     # coarse: few yarns across, so the peak is broad enough for a 1° step
     f = min(1.0, config.radon_coarse_pitch_px / pitch_px)
     small = cv2.resize(img, None, fx=f, fy=f, interpolation=cv2.INTER_AREA) if f < 1 else img
-    edge = _disc(_laplacian_edges(small), config.radon_coarse_diameter_px)
+    edge_sigma_px = config.radon_band_sigma_pitch * pitch_px if band else 0.7
+    edge = _disc(_laplacian_edges(small, sigma_px=edge_sigma_px * f), config.radon_coarse_diameter_px)
     thetas = np.arange(0.0, 180.0, config.radon_coarse_step_deg)
     v = _radon_variance(edge, thetas)
     # a weave is two families of lines: score each direction together with the strongest
@@ -425,12 +466,13 @@ def dominant_angles(img: np.ndarray, *, pitch_px: float, config: PrepareConfig =
     best = _squarest_pair(pair, thetas, tie=config.radon_pair_tie)
     k_best = max(range(-reach, reach + 1), key=lambda k: v[(best + half + k) % n_t])
     contrast = float(pair[best] / max(np.median(pair), 1e-12))
-    edge_f = _disc(_laplacian_edges(img), config.radon_fine_diameter_px)
+    edge_f = _disc(_laplacian_edges(img, sigma_px=edge_sigma_px), config.radon_fine_diameter_px)
     refined = []
     for t0 in (thetas[best], thetas[best] + 90.0 + k_best * config.radon_coarse_step_deg):
         ts = t0 + np.arange(-config.radon_fine_halfwidth_deg, config.radon_fine_halfwidth_deg + 1e-9,
                             config.radon_fine_step_deg)
         refined.append(_parabola_peak(ts, _radon_variance(edge_f, ts)))
+    refined = _recheck_pair(edge_f, refined, config)
     # skimage's projection at angle θ sums along lines of direction 90° − θ (image, y down)
     dirs = [(90.0 - t) % 180.0 for t in refined]
     # the one nearest to vertical (90°) is the warp direction
@@ -493,7 +535,8 @@ def rectify(rgb: np.ndarray, *, config: PrepareConfig = PrepareConfig(),
     ----------
     rgb : (H, W, 3) or (H, W) float32 linear image.
     config : hyper-parameters.
-    pitch_px : the texture period in input pixels if already known (else :func:`coarse_pitch`).
+    pitch_px : the yarn pitch in input pixels where already measured (else the texture period of
+        :func:`coarse_pitch`); the Radon is then tuned to it (:func:`dominant_angles`' ``band``).
 
     Returns
     -------
@@ -538,7 +581,7 @@ def rectify(rgb: np.ndarray, *, config: PrepareConfig = PrepareConfig(),
     cw_ = _centred(work.shape)
     flat = cv2.warpPerspective(work, np.linalg.inv(cw_) @ h_rel @ cw_, (ww, wh),
                                flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT)
-    ang = dominant_angles(flat, pitch_px=config.work_pitch_px, config=config)
+    ang = dominant_angles(flat, pitch_px=config.work_pitch_px, band=pitch_px is not None, config=config)
     m2 = straightening(ang["vertical_deg"], ang["horizontal_deg"])
     m2 /= np.sqrt(abs(np.linalg.det(m2)))  # keep the area at the centre
     a0 = np.eye(3)
