@@ -44,6 +44,19 @@ def test_cell_repeat_finds_the_pattern_repeat(pattern):
     assert tuple(found) == pattern.shape
 
 
+def test_cell_repeat_of_a_herringbone_is_its_reversal_not_its_twill_step():
+    """A herringbone (2/2 twill reversing every 12 warps) whose cells do not tell a warp float
+    from a weft float (Brodatz D16): shifted by two warps a leg matches itself, but the
+    reversals undo that a few warps on; only the reversal period dips at all its multiples."""
+    cols = np.concatenate([np.arange(12), np.arange(12)[::-1]])
+    p = np.tile(twill(2, 2, step=1)[:, cols % 4], (10, 3)).astype(float)
+    edges = np.abs(p - np.roll(p, 1, axis=1)) + np.abs(p - np.roll(p, 1, axis=0))
+    cells = np.stack([edges, np.roll(edges, 1, axis=1)], axis=2)
+    cells = cells + np.random.default_rng(3).normal(0, 0.15, cells.shape)
+    found = [cell_repeat(cells, axis=a, max_yarns=48, tol=0.1, z=3.0, min_depth=0.15)[0] for a in (0, 1)]
+    assert found == [2, 24]  # along y a shift of two wefts is the same look: the cells cannot tell
+
+
 def test_cell_repeat_reports_no_repeat_in_noise():
     cells = np.random.default_rng(0).normal(size=(20, 20, 12))
     assert cell_repeat(cells, axis=1, max_yarns=48, tol=0.1, z=3.0, min_depth=0.15)[0] is None

@@ -133,3 +133,15 @@ def test_satin_with_hidden_weft_boundaries_gets_its_weft_pitch_from_the_lattice(
     assert tuple(r.grid.yarns) == (5, 5)
     # without the lattice the same photo has no grid
     assert isinstance(prepare_photo(img, PrepareConfig(lattice_min_known_strength=1.01)), Rejected)
+
+
+def test_lattice_pitch_of_a_rib_counts_its_hidden_yarns_from_the_crossings():
+    """A 2 × 8 rib (wefts floating over four warps) has the lattice of a plain weave of warps four
+    times as wide; the crossings of the warp gaps with the weft gaps tell the warps apart
+    (forward-model render, seed 11, #34: 44.6 px found for 12.8 px)."""
+    px, py = 10.0, 14.0
+    lattice = [(a / (8 * px), (b - a / 2) / py, 1.0 / a ** 2) for a in range(1, 7) for b in range(-1, 3)
+               if (b - a / 2) != 0]
+    crossings = [(1 / px, 1 / py, 0.3), (2 / px, 1 / py, 0.2)]
+    p, share = lattice_pitch(np.array(lattice + crossings), known_pitch=py, axis=0, tol=1e-4)
+    assert p is not None and abs(p / px - 1) < 1e-6 and share == 1.0

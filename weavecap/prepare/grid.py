@@ -345,8 +345,10 @@ def lattice_pitch(peaks: np.ndarray, *, known_pitch: float, axis: int, max_yarns
     the spectrum lie on the reciprocal lattice of the repeat, (a·u_x, b·u_y) with u = yarn
     frequency / yarns in the repeat. The known axis gives its yarn frequency k and the fewest
     yarns n with all strong peaks at multiples of k/n; the other axis's unit u is the largest
-    one with all strong peaks at its multiples; a regular n-end satin or twill repeats over
-    n yarns on both axes, so the hidden yarn frequency is n·u.
+    one with all strong peaks at its multiples. The hidden yarn frequency is m·u, with m read
+    off the peaks where the two families' gaps cross (:func:`_hidden_yarns`: a rib's 2 wefts
+    over 8 warps has the lattice of a plain weave of warps four times as wide) or, where no
+    crossing shows, m = n: a regular n-end satin or twill repeats over n yarns on both axes.
 
     Parameters
     ----------
@@ -380,8 +382,33 @@ def lattice_pitch(peaks: np.ndarray, *, known_pitch: float, axis: int, max_yarns
             break
         share = _lattice_share(sought, w, u, tol)
         if share >= min_share:
-            return 1.0 / (n * u), share
+            return 1.0 / (_hidden_yarns(known, sought, w, k=k, u=u, tol=tol, default=n) * u), share
     return None, 0.0
+
+
+def _hidden_yarns(known: np.ndarray, sought: np.ndarray, w: np.ndarray, *, k: float, u: float, tol: float,
+                  default: int) -> int:
+    """How many yarns of the hidden axis one lattice unit holds (§4.4), from the gaps' crossings.
+
+    Where the hidden yarns' gaps show at all (a rib's warps between its weft floats), they
+    cross the known axis's gaps: a peak on the line of the known yarn frequency ``k``, at the
+    hidden yarn frequency. The strongest peak on that line gives the count, rounded to whole
+    multiples of the lattice unit ``u`` (of peaks within 10 % of its power, the lowest: a yarn
+    frequency is a fundamental, its harmonics are no stronger). With no peak on that line, the repeat of a
+    regular satin or twill is assumed: ``default`` (the known axis's count).
+
+    Parameters
+    ----------
+    known, sought, w : (K,) |frequency| along the known and the hidden axis (cycles/px) and
+        power of the off-axis peaks.
+    k : the known axis's yarn frequency; u : the hidden axis's lattice unit (cycles/px).
+    tol : largest distance (cycles/px) of a peak from the line.
+    """
+    line = (np.abs(known - k) <= tol) & (sought > 2 * tol)
+    if not np.any(line):
+        return default
+    strong = line & (w >= 0.9 * w[line].max())
+    return max(1, int(round(float(sought[strong].min()) / u)))
 
 
 # ----------------------------------------------------------------------------- cells

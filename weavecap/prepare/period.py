@@ -108,20 +108,52 @@ def cell_dmf(cells: np.ndarray, *, axis: int, max_shift: int) -> tuple[np.ndarra
     return np.array(d), np.array(se)
 
 
+def multiple_contrast(dmf: np.ndarray) -> np.ndarray:
+    """How well each shift ``n`` explains the DMF as a repeat: how far the DMF dips at every
+    multiple of ``n`` below the shifts one yarn to either side, on average (§4.3).
+
+    A repeat of ``n`` yarns makes the DMF dip at ``n`` *and at every multiple of it*. A shift
+    that merely resembles the weave nearby (a twill's diagonal step, which a herringbone's
+    reversals undo a few yarns further on) dips at ``n`` but not at its multiples. A divisor of
+    the repeat that is no repeat itself dips only at some of its multiples. Either way its
+    contrast is lower than the repeat's; a multiple of the repeat ties with it.
+
+    Parameters
+    ----------
+    dmf : (N + 1,) DMF at shifts 0…N (shift 0 is not used).
+
+    Returns
+    -------
+    (N + 1,) array: entry ``n`` ≥ 2 is the mean over the multiples ``m·n ≤ N`` of the mean DMF
+    at ``m·n ± 1`` (the one inside 1…N at ``N``) less that at ``m·n`` (same units as the DMF);
+    entries 0 and 1 are -inf.
+    """
+    d = np.asarray(dmf, np.float64)
+    top = len(d) - 1
+    out = np.full(len(d), -np.inf)
+    for n in range(2, top + 1):
+        dips = [np.mean([d[k - 1]] + ([d[k + 1]] if k < top else [])) - d[k] for k in range(n, top + 1, n)]
+        out[n] = float(np.mean(dips))
+    return out
+
+
 def cell_repeat(cells: np.ndarray, *, axis: int, max_yarns: int, tol: float, z: float,
                 min_depth: float) -> tuple[int | None, float, np.ndarray]:
     """The minimum repeat along one axis, in yarns, from the cell DMF (§4.3).
 
     Only shifts up to half the cells are compared (a repeat must show twice). With d* the
-    lowest DMF (at two yarns or more: a weave interlaces) and d⁺ the highest, the repeat is the
-    fewest yarns whose DMF lies within ``tol`` of the way from d* to d⁺: its multiples are as
-    low, and a shift that is not a multiple changes whole cells (a twill of n shifted by n - 1
-    still changes two cells in n, far above ``tol``).
+    lowest DMF (at two yarns or more: a weave interlaces) and d⁺ the highest, a repeat shows
+    when 1 - d*/d⁺ reaches ``min_depth`` and d⁺ - d* is ``z`` standard errors. The repeat is
+    then, of the shifts whose DMF lies within ``tol·(d⁺ - d*)`` of d*, the fewest yarns whose
+    dips at all its multiples (:func:`multiple_contrast`) are as deep, within the same margin,
+    as the deepest such: a shift that is not a multiple of the repeat changes whole cells (a
+    twill of n shifted by n - 1 still changes two cells in n), and every multiple of the
+    repeat dips too.
 
     Returns
     -------
-    (yarns or None, depth, dmf): depth = 1 - d*/d⁺; None when it is under ``min_depth`` or
-    d⁺ - d* is under ``z`` standard errors (the photo holds at most one repeat along this axis).
+    (yarns or None, depth, dmf): depth = 1 - d*/d⁺; None when no repeat shows (the photo holds
+    at most one repeat along this axis).
     """
     n_all = cells.shape[axis]
     nmax = min(max_yarns, n_all // 2)
@@ -133,5 +165,8 @@ def cell_repeat(cells: np.ndarray, *, axis: int, max_yarns: int, tol: float, z: 
     depth = 1.0 - best / max(top, 1e-12)
     if depth < min_depth or top - best < z * (se[k_best] + se[k_top]):
         return None, depth, d
-    n = next(k for k in range(2, nmax + 1) if d[k] <= best + tol * (top - best))
+    slack = tol * (top - best)
+    low = [k for k in range(2, len(d)) if d[k] <= best + slack]
+    c = multiple_contrast(d)
+    n = next(k for k in low if c[k] >= max(c[low]) - slack)
     return n, depth, d
