@@ -21,6 +21,8 @@ import numpy as np
 from . import params as wparams
 from .errors import PhotoError
 from .fit.config import PRESETS, FitConfig, cell_px_for
+from .fit.target import (align_cells, better_of_dual, mean_repeat, photo_blur, register_cells, repeat_cells,
+                         shifted)
 from .io import atomic_write_text
 
 REPORT_FORMAT = "weavecap.report/1"
@@ -75,160 +77,17 @@ def psnr(a: np.ndarray, b: np.ndarray) -> float:
     return float(10 * np.log10(1.0 / max(mse, 1e-12)))
 
 
-def _repeat_cells(prepared, image_box: tuple[float, float, float, float]):
-    """The cells of one repeat inside the regularized box, in the box's pixels."""
-    from .estimate.cells import CellGrid
-
-    grid = prepared.grid
-    rows, cols = grid.cells()
-    y0, x0 = image_box[0], image_box[1]
-    rh, rw = rows[-1] - rows[0], cols[-1] - cols[0]
-    # move the repeat by whole repeats so that it starts inside the box
-    dy = y0 + np.mod(rows[0] - y0, rh) - rows[0]
-    dx = x0 + np.mod(cols[0] - x0, rw) - cols[0]
-    return CellGrid(rows=rows + dy - y0, cols=cols + dx - x0)
-
-
-def align_cells(image: np.ndarray, cells):
-    """Put the cell corners on the gaps between yarns: of the four half-pitch shifts of
-    ``cells``, the one whose corners vary most and whose centres vary least (§5's cells are
-    centred on yarn crossings).
-
-    The yarn boundaries of §4.4 are valleys of the integral projection — right under front
-    light, where gaps are dark, but half a pitch off under back light, where they glow. A
-    corner window holds a gap and four yarn edges whatever the light; a centre window sits on a
-    smooth crossing. (Finer shifts, and the orientation coherence of each cell, were tried and
-    chose worse phases on the bench photos.) ``image`` (H, W, 3) linear RGB, ``cells`` a
-    CellGrid in its pixels.
-    """
-    from .estimate.cells import CellGrid, cell_canvas
-
-    c = 12
-    win = max(1, c // 4)
-    best, best_score = cells, -np.inf
-    for dy in (0.0, 0.5):
-        for dx in (0.0, 0.5):
-            shifted = CellGrid(rows=cells.rows + dy * np.diff(cells.rows).mean(),
-                               cols=cells.cols + dx * np.diff(cells.cols).mean())
-            grey = cell_canvas(image, shifted, c).mean(axis=2)
-            tiles = grey.reshape(shifted.shape[0], c, shifted.shape[1], c).transpose(0, 2, 1, 3)
-            centre = tiles[:, :, c // 2 - win: c // 2 + win, c // 2 - win: c // 2 + win]
-            corner = np.roll(np.roll(grey, win, axis=0), win, axis=1)
-            corner = corner.reshape(shifted.shape[0], c, shifted.shape[1], c).transpose(0, 2, 1, 3)[:, :, :2 * win, :2 * win]
-            score = float(corner.var(axis=(2, 3)).mean() - centre.var(axis=(2, 3)).mean())
-            if score > best_score:
-                best, best_score = shifted, score
-    return best
-
-
-def register_cells(image: np.ndarray, cells, fabric: wparams.Fabric, *, light: str, c: int = 16):
-    """Move ``cells`` so that the photo's repeat lines up with a render of ``fabric``.
-
-    The cells found from §4.4's boundaries can sit a fraction of a yarn off (uneven lighting,
-    bright gaps, residual perspective), and then no parameter values fit. The photo's cell
-    canvas and the render are both one period of the fabric, so their circular
-    cross-correlation (one FFT) peaks at the shift between them; the cells move by that shift
-    (sub-pixel, by a parabola through the peak), whole cells included, so the fabric's pattern
-    stays right for the moved cells. Returns the moved CellGrid and the shift in cells (dy, dx).
-    """
-    from .estimate.cells import CellGrid, cell_canvas
-    from .estimate.forward import RepeatRenderer
-
-    photo = cell_canvas(image, cells, c).mean(axis=2)
-    model = RepeatRenderer(fabric, cell_px=c, light=light).render().mean(axis=2)
-    a, b = photo - photo.mean(), model - model.mean()
-    corr = np.real(np.fft.ifft2(np.fft.fft2(a) * np.conj(np.fft.fft2(b))))
-    iy, ix = np.unravel_index(int(np.argmax(corr)), corr.shape)
-
-    def peak(values: np.ndarray, i: int) -> float:
-        n = values.size
-        lo, mid, hi = values[(i - 1) % n], values[i], values[(i + 1) % n]
-        den = lo - 2 * mid + hi
-        k = i + (0.5 * (lo - hi) / den if den < 0 else 0.0)
-        return k - n if k > n / 2 else k
-
-    dy, dx = peak(corr[:, ix], iy) / c, peak(corr[iy, :], ix) / c
-    moved = CellGrid(rows=cells.rows + dy * np.diff(cells.rows).mean(), cols=cells.cols + dx * np.diff(cells.cols).mean())
-    return moved, (float(dy), float(dx))
-
-
-def mean_repeat(image: np.ndarray, cells, c: int):
-    """The photo's average repeat as a cell canvas: the median over every whole repeat of
-    ``image`` (H, W, 3) on the lattice of ``cells`` (a CellGrid in its pixels), one pitch clear
-    of the border. Irregularities average out (§4.2's aim) without kernel PCA's variable
-    smoothing: on a synthetic twill the true parameters score 33.9 and 35.5 dB against this at
-    0° and 12° turns, against the regularized photo's repeat 26.4 and 40.4 dB. Returns
-    (n_e*c, n_a*c, 3).
-    """
-    from .estimate.cells import CellGrid, cell_canvas
-
-    n_e, n_a = cells.shape
-    h, w = image.shape[:2]
-    axes = []
-    for bounds, n, size in ((cells.rows, n_e, h), (cells.cols, n_a, w)):
-        pitch = float(np.diff(bounds).mean())
-        period = n * pitch
-        start = bounds[0] - np.floor((bounds[0] - pitch) / period) * period  # first repeat clear of the edge
-        count = max(1, int(np.floor((size - pitch - start) / period)))
-        if start + period > size:  # the photo holds less than one clear repeat: use the one given
-            start, count = bounds[0], 1
-        axes.append((start + pitch * np.arange(count * n + 1), count))
-    (rows, ky), (cols, kx) = axes
-    canvas = cell_canvas(image, CellGrid(rows=rows, cols=cols), c)
-    return np.median(canvas.reshape(ky, n_e * c, kx, n_a * c, 3), axis=(0, 2)).astype(np.float32)
-
-
-def dual(fabric: wparams.Fabric) -> wparams.Fabric:
-    """The fabric with every cell's state flipped and the warp's and weft's colours and radii
-    exchanged: in each cell the other yarn family is on top, in the colour that was there. A
-    cell-colour match cannot tell the two apart (a plain weave's two phases look alike cell by
-    cell); only the yarns' shapes (running across or down) can."""
-    swap = {}
-    for key in ("body_reflection", "body_subsurface", "radius"):
-        swap[f"warp.{key}"], swap[f"weft.{key}"] = fabric.get(f"weft.{key}"), fabric.get(f"warp.{key}")
-    return fabric.replace({**swap, "pattern": 1 - fabric.pattern})
-
-
-def photo_blur(fabric: wparams.Fabric, target: np.ndarray, *, light: str, spp: int) -> float:
-    """σ (canvas px) of the Gaussian that makes a render of ``fabric`` most like ``target``,
-    and the MSE it leaves.
-
-    The regularized photo is smoothed by §4.2's Gaussian (σ = pitch / 16), by resampling to
-    the canvas and by the camera itself; how much in all varies from photo to photo, and the
-    MSE is very sensitive to it (on a 16-px canvas: 0.0033 at σ = 1 px, 0.0025 at 1.5, 0.0053
-    at 2). It is measured once, on the pre-estimate, by a bounded 1-D search.
-    """
-    from scipy.optimize import minimize_scalar
-
-    from .model.render import blurred_mse, render_numpy
-    from .model.scene import View, build_scene
-
-    c = target.shape[0] / fabric.shape[0]
-    image = render_numpy(build_scene(fabric, View(tiles=(1, 1), size=max(target.shape[:2]), spp=spp), light=light))
-    best = minimize_scalar(lambda s: blurred_mse(image, target, s), bounds=(0.0, c / 4), method="bounded",
-                           options={"xatol": 0.02})
-    return float(best.x), float(best.fun)
-
-
-def _better_of_dual(start: wparams.Fabric, target: np.ndarray, light: str, spp: int):
-    """The pre-estimate or its :func:`dual`, whichever renders closer to the photo (each at its
-    own best blur); returns (fabric, blur_px, what was compared)."""
-    options = {"pre_estimate": start, "dual": dual(start)}
-    scores = {name: photo_blur(f, target, light=light, spp=spp) for name, f in options.items()}
-    name = min(scores, key=lambda k: scores[k][1])
-    return options[name], scores[name][0], {"chosen": name, **{k: round(v[1], 6) for k, v in scores.items()}}
-
-
 def _pattern_confidence(fs, rendered: np.ndarray, target: np.ndarray, spp: int, blur_px: float) -> float:
     """Fraction of cells whose fitted state (``rendered``, blurred) explains the photo better
     than its opposite (one more render, of the complement pattern)."""
     from .estimate.cells import cell_errors
-    from .model.render import blur, render_numpy
+    from .model.render import as_photographed, render_numpy, white_level
 
     pattern = fs.fabric.pattern.copy()
     now = cell_errors(rendered, target, pattern.shape)
     fs.set("pattern", 1 - pattern)
-    flipped = cell_errors(blur(render_numpy(fs, spp=spp), blur_px), target, pattern.shape)
+    flipped = cell_errors(as_photographed(render_numpy(fs, spp=spp), blur_px, white_level(target)), target,
+                          pattern.shape)
     fs.set("pattern", pattern)
     return float(np.mean(flipped > now))
 
@@ -257,8 +116,7 @@ def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), 
     from .estimate.cells import cell_canvas
     from .estimate.preestimate import pre_estimate
     from .estimate.weave_name import weave_name
-    from .fit.joint import fit
-    from .model.render import blur, render_numpy
+    from .model.render import as_photographed, render_numpy, white_level
     from .model.scene import View, build_scene
     from .noise import fit_noise
     from .photo import file_sha256, load_photo
@@ -292,7 +150,7 @@ def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), 
         return _rejected(report, prepared.reason, prepared.code, timings, t0)
     prep = prepared.to_json()
     report["rectification"], report["grid"] = prep["rectification"], prep["grid"]
-    cells = _repeat_cells(prepared, prepared.regularized.box)
+    cells = repeat_cells(prepared, prepared.regularized.box)
     cells = align_cells(prepared.regularized.image, cells)
     shape = cells.shape
     if options.pattern is not None and options.pattern.shape != shape:
@@ -317,25 +175,19 @@ def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), 
 
     config = options.config
     c = cell_px_for(config, shape)
-    cells, shift = register_cells(prepared.regularized.image, cells, start, light=options.light, c=c)
-    report.setdefault("pre_estimation", {})["cell_shift"] = [round(v, 3) for v in shift]
-    photo_cells = _shifted(cells, prepared.regularized.box)  # in the rectified photo's pixels
-    target = mean_repeat(prepared.rectification.image, photo_cells, c)
     fixed = frozenset({"pattern"}) if options.pattern is not None else frozenset()
     say(f"fitting ({options.quality}: up to {config.iterations} steps"
         + (f", {options.budget_s:g} s budget" if options.budget_s else "") + ")")
     t = time.perf_counter()
-    if options.pattern is None and options.start_from is None:
-        start, blur_px, report["pre_estimation"]["dual"] = _better_of_dual(start, target, options.light, config.spp)
-    else:
-        blur_px, _ = photo_blur(start, target, light=options.light, spp=config.spp)
-    result = fit(target, start, config=config, light=options.light, seed=options.seed, budget_s=options.budget_s,
-                 fixed=fixed, blur_px=blur_px)
+    fitted = fit_registered(prepared, cells, start, options, c=c, fixed=fixed,
+                            choose_dual=options.pattern is None and options.start_from is None)
+    result, blur_px, target, photo_cells = fitted.result, fitted.blur_px, fitted.target, fitted.cells
+    report["pre_estimation"].update(fitted.notes)
     timings["fit"] = time.perf_counter() - t
 
     t = time.perf_counter()
     fs = build_scene(result.fabric, View(tiles=(1, 1), size=max(target.shape[:2]), spp=config.spp), light=options.light)
-    rendered = blur(render_numpy(fs), blur_px)
+    rendered = as_photographed(render_numpy(fs), blur_px, white_level(target))
     confidence = _pattern_confidence(fs, rendered, target, config.spp, blur_px)
     photo_canvas = cell_canvas(prepared.rectification.image, photo_cells, c)
     noise = fit_noise(photo_canvas - rendered, pitch_px=float(c), seed=options.seed)
@@ -368,11 +220,72 @@ def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), 
     return Capture(report=report, fabric=fabric, images=images, history=result.history)
 
 
-def _shifted(cells, box):
-    """``cells`` (box pixels) in the rectified image's pixels."""
-    from .estimate.cells import CellGrid
+@dataclass
+class RegisteredFit:
+    """What :func:`fit_registered` found: the last round's fit, and the target it was fitted to.
 
-    return CellGrid(rows=cells.rows + box[0], cols=cells.cols + box[1])
+    Attributes
+    ----------
+    result : the last round's :class:`weavecap.fit.joint.FitResult` (its history holds every
+        round's steps)
+    target : (n_e*c, n_a*c, 3) the photo's median repeat on the last registration
+    cells : that registration, a CellGrid in the rectified photo's pixels
+    blur_px : the blur the renders were compared with
+    notes : what the report records (cell shifts per round, the dual choice)
+    """
+
+    result: object
+    target: np.ndarray
+    cells: object
+    blur_px: float
+    notes: dict
+
+
+def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptions, *, c: int,
+                   fixed: frozenset[str], choose_dual: bool) -> RegisteredFit:
+    """The joint fit (§6), alternating with the registration of the photo's cells.
+
+    The target is the photo's median repeat on cells registered against a render of the
+    current fabric (:func:`register_cells`); a render of the pre-estimate can be far enough off
+    (wrong radii, colours) to put the cells a fifth of a yarn astray, and then even the true
+    parameters score poorly (a synthetic random 2×3 turned 12°: 15.4 dB registered on the
+    pre-estimate, 33.7 dB on the truth). So the fit runs in ``config.registration_rounds``
+    rounds, the iterations and any budget split evenly; before each, the cells are registered
+    on the fabric fitted so far, the target re-extracted and the blur re-measured. Each round
+    warm-starts from the last one's best fabric.
+    """
+    from .estimate.forward import RepeatRenderer
+    from .fit.joint import fit
+    from .model.render import white_level
+
+    config = options.config
+    rounds = max(1, config.registration_rounds)
+    per_round = config.with_(iterations=max(1, config.iterations // rounds))
+    t0 = time.perf_counter()
+    history: list[float] = []
+    notes: dict = {"cell_shift": []}
+    fabric, result = start, None
+    for k in range(rounds):
+        cells, shift = register_cells(prepared.regularized.image, cells, fabric, light=options.light, c=c)
+        notes["cell_shift"].append([round(v, 3) for v in shift])
+        photo_cells = shifted(cells, prepared.regularized.box)  # in the rectified photo's pixels
+        model = RepeatRenderer(fabric, cell_px=c, light=options.light,
+                               white=white_level(prepared.rectification.image)).render()
+        target = mean_repeat(prepared.rectification.image, photo_cells, c, model=model)
+        if k == 0 and choose_dual:
+            fabric, blur_px, notes["dual"] = better_of_dual(fabric, target, options.light, config.spp)
+        else:
+            blur_px, _ = photo_blur(fabric, target, light=options.light, spp=config.spp)
+        budget = None
+        if options.budget_s is not None:
+            budget = max(0.0, options.budget_s - (time.perf_counter() - t0)) / (rounds - k)
+        result = fit(target, fabric, config=per_round, light=options.light, seed=options.seed + k,
+                     budget_s=budget, fixed=fixed, blur_px=blur_px)
+        history += result.history
+        fabric = result.fabric
+    result = dataclasses.replace(result, history=history, iterations=len(history),
+                                 seconds=time.perf_counter() - t0)
+    return RegisteredFit(result=result, target=target, cells=photo_cells, blur_px=blur_px, notes=notes)
 
 
 def loss_plot(history: list[float], *, size: tuple[int, int] = (240, 400)) -> np.ndarray:

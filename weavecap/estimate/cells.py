@@ -56,7 +56,7 @@ def _axis_map(bounds: np.ndarray, cell_px: int) -> np.ndarray:
     return np.interp(t, np.arange(n + 1), bounds) - 0.5
 
 
-def cell_canvas(image: np.ndarray, grid: CellGrid, cell_px: int) -> np.ndarray:
+def cell_canvas(image: np.ndarray, grid: CellGrid, cell_px: int, offset: np.ndarray | None = None) -> np.ndarray:
     """Resample the repeat of ``image`` inside ``grid`` so that every cell is ``cell_px`` square.
 
     Parameters
@@ -65,6 +65,9 @@ def cell_canvas(image: np.ndarray, grid: CellGrid, cell_px: int) -> np.ndarray:
         reflection at the image border).
     grid : the repeat's cell boundaries in ``image`` pixels.
     cell_px : side of a cell on the canvas, pixels.
+    offset : optional (2, n_e * cell_px, n_a * cell_px) displacement (dy, dx) in ``image``
+        pixels added to where each canvas pixel is read (a lattice that is not quite regular:
+        :func:`weavecap.fit.target.mean_repeat`).
 
     Returns
     -------
@@ -78,6 +81,9 @@ def cell_canvas(image: np.ndarray, grid: CellGrid, cell_px: int) -> np.ndarray:
     ys = _axis_map(grid.rows, cell_px).astype(np.float32)
     xs = _axis_map(grid.cols, cell_px).astype(np.float32)
     map_x, map_y = np.meshgrid(xs, ys)
+    if offset is not None:
+        map_y = map_y + np.asarray(offset[0], dtype=np.float32)
+        map_x = map_x + np.asarray(offset[1], dtype=np.float32)
     return cv2.remap(img, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT)
 
 

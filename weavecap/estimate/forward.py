@@ -29,16 +29,20 @@ class RepeatRenderer:
     light : light rig name (``both``, ``front``, ``back``; §6.4).
     spp : samples per pixel.
     blur_cells : σ of the Gaussian applied to every render, in cells (0: none).
+    white : renders are clipped at this level before the blur, like the photo they are
+        compared with (:func:`weavecap.model.render.as_photographed`); the default (none)
+        keeps them linear in the colours, which :mod:`.colour` relies on.
     """
 
     def __init__(self, fabric: Fabric, *, cell_px: int, light: str = "both", spp: int = 4,
-                 blur_cells: float = BLUR_CELLS):
+                 blur_cells: float = BLUR_CELLS, white: float = float("inf")):
         from ..model.scene import View, build_scene
 
         n_e, n_a = fabric.shape
         self.cell_px = cell_px
         self.spp = spp
         self.blur_px = blur_cells * cell_px
+        self.white = white
         self.scene = build_scene(fabric, View(tiles=(1, 1), size=cell_px * max(n_e, n_a), spp=spp), light=light)
         if self.scene.frame.shape != (n_e * cell_px, n_a * cell_px):
             raise ValueError(f"render shape {self.scene.frame.shape} is not a cell canvas of {fabric.shape} cells")
@@ -57,10 +61,11 @@ class RepeatRenderer:
             self.scene.set(key, value)
 
     def render(self) -> np.ndarray:
-        """(n_e * cell_px, n_a * cell_px, 3) float32 linear RGB, blurred by ``blur_cells``."""
-        from ..model.render import blur, render_numpy
+        """(n_e * cell_px, n_a * cell_px, 3) float32 linear RGB, clipped at ``white`` and
+        blurred by ``blur_cells``."""
+        from ..model.render import as_photographed, render_numpy
 
-        return blur(render_numpy(self.scene), self.blur_px)
+        return as_photographed(render_numpy(self.scene), self.blur_px, self.white)
 
     def coverage(self) -> np.ndarray:
         """(n_e * cell_px, n_a * cell_px) fraction of each pixel's samples that hit a yarn (unblurred)."""

@@ -35,6 +35,9 @@ class FitConfig:
     radius_every : one radius search round every this many gradient steps
     converge_window, converge_tol : stop when the best loss improved by less than this
         fraction over the last ``converge_window`` steps
+    registration_rounds : the capture fits in this many rounds, re-registering the photo's
+        cells on the fabric fitted so far before each (:func:`weavecap.pipeline.fit_registered`);
+        the iterations are split evenly between them
     """
 
     iterations: int = 120
@@ -53,13 +56,14 @@ class FitConfig:
     radius_every: int = 6
     converge_window: int = 25
     converge_tol: float = 2e-3
+    registration_rounds: int = 3
 
     def with_(self, **changes) -> "FitConfig":
         return replace(self, **changes)
 
 
 PRESETS: dict[str, FitConfig] = {
-    "draft": FitConfig(iterations=50, cell_px=10, converge_window=15),
+    "draft": FitConfig(iterations=50, cell_px=10, converge_window=15, registration_rounds=2),
     "normal": FitConfig(),
     "high": FitConfig(iterations=300, cell_px=24, max_side_px=256, spp=8, converge_window=40, converge_tol=5e-4),
 }

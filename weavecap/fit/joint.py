@@ -28,7 +28,7 @@ from typing import Callable
 import numpy as np
 import torch
 
-from ..model.render import blurred_mse, mse_and_gradients, render_numpy
+from ..model.render import blurred_mse, mse_and_gradients, render_numpy, white_level
 from ..model.scene import GEOMETRY_KEYS, FabricScene, View, build_scene
 from ..params import CONTINUOUS_KEYS, FIT_RANGES, Fabric
 from .config import FitConfig
@@ -155,7 +155,8 @@ def _pattern_sweep(fs: FabricScene, target: np.ndarray, *, light: str, spp: int,
 
     before = fs.fabric.pattern.copy()
     c = target.shape[0] // before.shape[0]
-    renderer = RepeatRenderer(fs.to_fabric(), cell_px=c, light=light, spp=spp, blur_cells=blur_px / c)
+    renderer = RepeatRenderer(fs.to_fabric(), cell_px=c, light=light, spp=spp, blur_cells=blur_px / c,
+                              white=white_level(target))
     result = anneal_pattern(target, renderer, start=before, match_colour=False)
     # a woven fabric interlaces: a yarn that is on top (or under) across the whole repeat would
     # not be held in place, so such a sweep result is a fit artefact and is not kept

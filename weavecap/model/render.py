@@ -223,9 +223,25 @@ def blur(image: np.ndarray, sigma_px: float) -> np.ndarray:
     return gaussian_filter(image, (sigma_px, sigma_px, 0), mode="wrap")
 
 
+def white_level(target: np.ndarray) -> float:
+    """The level at which the camera that took ``target`` saturated: 1 for a normalised
+    low-dynamic-range photo (no pixel above 1), none (inf) for a high-dynamic-range one."""
+    return 1.0 if float(np.max(target)) <= 1.0 else float("inf")
+
+
+def as_photographed(image: np.ndarray, blur_px: float, white: float = 1.0) -> np.ndarray:
+    """A render (H, W, 3) as the photo shows it: clipped at the sensor's ``white`` level, then
+    blurred by :func:`blur`. Bright gaps under a back light and specular glints render far
+    above 1 (4 on a pale satin), while the photo clips them; compared unclipped, those pixels
+    alone cost the true parameters 20 dB."""
+    return blur(np.minimum(image, white), blur_px)
+
+
 def blurred_mse(image: np.ndarray, target: np.ndarray, blur_px: float = 0.0) -> float:
-    """MSE (float64) between ``image`` blurred by :func:`blur` and ``target``, both (H, W, 3)."""
-    return float(np.mean(np.square(blur(image, blur_px).astype(np.float64) - target)))
+    """MSE (float64) between ``image`` as photographed (:func:`as_photographed` at the white
+    level of ``target``) and ``target``, both (H, W, 3)."""
+    shown = as_photographed(image, blur_px, white_level(target))
+    return float(np.mean(np.square(shown.astype(np.float64) - target)))
 
 
 def radius_gradient(fs: FabricScene, target: np.ndarray, key: str, *, seed: int = 0, spp: int | None = None,
@@ -247,11 +263,12 @@ def radius_gradient(fs: FabricScene, target: np.ndarray, key: str, *, seed: int 
 
 def mse_and_gradients(fs: FabricScene, target: np.ndarray, keys, *, seed: int = 0,
                       spp: int | None = None, blur_px: float = 0.0) -> tuple[float, dict[str, np.ndarray], np.ndarray]:
-    """MSE between a render, blurred by :func:`blur` (σ ``blur_px``), and ``target``
-    (H, W, 3), and its gradient for each dotted key of :data:`weavecap.params.FIT_RANGES` in
-    ``keys`` (reverse-mode AD; radii by :func:`radius_gradient`). The blur is linear and
-    symmetric, so the loss's adjoint image is the blurred residual, and reverse mode runs from
-    it (``dr.backward`` of Σ image · adjoint).
+    """MSE between a render as photographed (:func:`as_photographed`: clipped at the white
+    level of ``target``, blurred by σ ``blur_px``) and ``target`` (H, W, 3), and its gradient
+    for each dotted key of :data:`weavecap.params.FIT_RANGES` in ``keys`` (reverse-mode AD;
+    radii by :func:`radius_gradient`). The blur is linear and symmetric, so the loss's adjoint
+    image is the blurred residual, zero where the render is clipped, and reverse mode runs
+    from it (``dr.backward`` of Σ image · adjoint).
 
     Returns
     -------
@@ -275,9 +292,10 @@ def mse_and_gradients(fs: FabricScene, target: np.ndarray, keys, *, seed: int = 
             dr.enable_grad(leaf)
         image = render(fs, seed=seed, spp=spp_)
         image_np = np.array(dr.detach(image), dtype=np.float32)
-        residual = blur(image_np, blur_px).astype(np.float64) - target
+        white = white_level(target)
+        residual = as_photographed(image_np, blur_px, white).astype(np.float64) - target
         if ad_keys:
-            adjoint = blur(residual * (2.0 / residual.size), blur_px).astype(np.float32)
+            adjoint = (blur(residual * (2.0 / residual.size), blur_px) * (image_np < white)).astype(np.float32)
             dr.backward(dr.sum(image * mi.TensorXf(adjoint), axis=None))
         adjoints = {key: dr.grad(leaf) for key, leaf in leaves.items()}
         dr.eval(adjoints)  # one backward kernel for all of them

@@ -1,0 +1,113 @@
+"""The fit's target (weavecap.fit.target) and the camera's white level: photos with known
+lattices and known saturation."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from weavecap import params
+from weavecap.estimate.cells import CellGrid
+from weavecap.estimate.forward import RepeatRenderer
+from weavecap.fit.target import correlation_shift, lattice_drift, mean_repeat, register_cells
+from weavecap.model.render import as_photographed, blurred_mse, mse_and_gradients, white_level
+from weavecap.model.scene import View, build_scene
+
+FIXTURES = Path(__file__).resolve().parents[1] / "fixtures" / "params"
+C = 16
+
+
+@pytest.fixture(scope="module")
+def twill():
+    fabric = params.load(FIXTURES / "twill_2_1.json")
+    return fabric, RepeatRenderer(fabric, cell_px=C, light="both", blur_cells=0.0).render()
+
+
+def tiled_photo(repeat: np.ndarray, reps: tuple[int, int], *, pitch: float, drift: tuple[float, float],
+                origin: tuple[float, float]) -> np.ndarray:
+    """A photo of ``reps`` repeats of a (h, w, 3) canvas at ``pitch`` px per cell (canvas cells
+    are C px), whose lattice drifts: the repeat at row/column k sits ``drift`` * k px further
+    down/right than a regular lattice puts it (a pitch a little off, as a rectification leaves)."""
+    import cv2
+
+    h, w = repeat.shape[:2]
+    n_e, n_a = h // C, w // C
+    height = int(reps[0] * n_e * pitch + 2 * origin[0])
+    width = int(reps[1] * n_a * pitch + 2 * origin[1])
+    y, x = np.mgrid[0:height, 0:width].astype(np.float64) + 0.5
+    # invert position → canvas coordinate, the repeat period growing by ``drift`` px per repeat
+    period_y, period_x = n_e * pitch + drift[0], n_a * pitch + drift[1]
+    cy = ((y - origin[0]) / period_y * h) % h
+    cx = ((x - origin[1]) / period_x * w) % w
+    tiled = np.tile(repeat, (3, 3, 1))
+    return cv2.remap(tiled, (cx + w - 0.5).astype(np.float32), (cy + h - 0.5).astype(np.float32),
+                     cv2.INTER_LINEAR)
+
+
+def test_correlation_shift_finds_a_known_sub_pixel_shift(twill):
+    _, model = twill
+    grey = model.mean(axis=2)
+    from scipy.ndimage import shift as nd_shift
+
+    moved = nd_shift(grey, (2.4, -3.3), order=3, mode="wrap")
+    dy, dx = correlation_shift(moved, grey)
+    assert abs(dy - 2.4) < 0.2 and abs(dx + 3.3) < 0.2
+
+
+def test_register_cells_moves_misplaced_cells_onto_the_repeat(twill):
+    fabric, model = twill
+    photo = tiled_photo(model, (4, 4), pitch=C, drift=(0.0, 0.0), origin=(10.0, 10.0))
+    truth = CellGrid.regular(fabric.shape, C, origin=(10.0, 10.0))
+    off = CellGrid.regular(fabric.shape, C, origin=(10.0 + 5.0, 10.0 - 4.0))
+    moved, shift = register_cells(photo, off, fabric, light="both", c=C)
+    # the cells land on the truth's lattice: up to whole repeats, within a fifth of a pixel
+    period = np.array([fabric.shape[0] * C, fabric.shape[1] * C])
+    err = (np.array([moved.rows[0] - truth.rows[0], moved.cols[0] - truth.cols[0]]) + period / 2) % period - period / 2
+    assert np.all(np.abs(err) < 0.6), (err, shift)
+
+
+def test_mean_repeat_follows_a_drifting_lattice(twill):
+    fabric, model = twill
+    # 0.4 px of drift per repeat: 2.4 px across six repeats, enough to smear a plain median
+    photo = tiled_photo(model, (6, 6), pitch=C, drift=(0.4, -0.4), origin=(C, C))
+    cells = CellGrid.regular(fabric.shape, C, origin=(C + 0.0, C + 0.0))
+    plain = mean_repeat(photo, cells, C)
+    followed = mean_repeat(photo, cells, C, model=model)
+    assert blurred_mse(model, followed) < 0.5 * blurred_mse(model, plain)
+    assert np.all(np.isfinite(followed)) and followed.shape == model.shape
+
+
+def test_lattice_drift_is_zero_on_a_regular_lattice_and_ignores_a_damaged_repeat(twill):
+    _, model = twill
+    grey = model.mean(axis=2)
+    blocks = np.broadcast_to(grey, (4, 4) + grey.shape).copy()
+    blocks[1, 2] = np.random.default_rng(0).random(grey.shape)  # one repeat is a flaw
+    coef, basis = lattice_drift(blocks, grey, C)
+    field = basis(np.array([0.5, 3.5]), np.array([0.5, 3.5])) @ coef
+    assert np.all(np.abs(field) < 0.05)
+
+
+def test_a_photo_of_one_repeat_still_gives_its_repeat(twill):
+    fabric, model = twill
+    cells = CellGrid.regular(fabric.shape, C)
+    out = mean_repeat(model, cells, C, model=model)
+    assert out.shape == model.shape and blurred_mse(model, out) < 1e-4
+
+
+def test_white_level_clips_a_render_as_a_photo_does():
+    clear = (1.0, 1.0, 1.0)  # yarns that pass the back light on: they glow brighter than white
+    fabric = params.load(FIXTURES / "satin_5.json").replace({"specular.transmission": clear,
+                                                             "specular.transmission_exit": clear})
+    fs = build_scene(fabric, View(tiles=(1, 1), size=80, spp=4), light="both")
+    from weavecap.model.render import render_numpy
+
+    image = render_numpy(fs)
+    assert image.max() > 1.5
+    photo = np.minimum(image, 1.0)
+    assert white_level(photo) == 1.0 and white_level(image) == np.inf
+    assert blurred_mse(image, photo) < 1e-12  # the true fabric explains the clipped photo exactly
+    assert np.array_equal(as_photographed(image, 0.0, np.inf), image)
+    loss, grads, _ = mse_and_gradients(fs, photo, ["specular.reflection", "warp.body_reflection"], blur_px=0.7)
+    assert np.isfinite(loss) and all(np.all(np.isfinite(g)) for g in grads.values())

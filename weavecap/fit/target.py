@@ -1,0 +1,243 @@
+"""The joint fit's target: one repeat of the photo, registered on the fabric being fitted (§6).
+
+Preparation (§4) gives the rectified photo and the cell boundaries of one repeat; the fit
+compares a render of one repeat with the photo's *median repeat* on that lattice. How well
+that works rests on the lattice: a fifth of a cell off, or a drift of a pixel across the
+photo, and even the true parameters score poorly. So the cells are registered on a render of
+the fabric (:func:`register_cells`, one FFT), and the median repeat follows any residual drift
+of the lattice across the photo (:func:`mean_repeat` with a ``model``). The capture repeats
+both between rounds of the fit (:func:`weavecap.pipeline.fit_registered`).
+
+Shapes: images are (H, W, 3) linear RGB; a canvas of one repeat of an (n_e, n_a) pattern at
+``c`` px per cell is (n_e*c, n_a*c, 3) (:mod:`weavecap.estimate.cells`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..estimate.cells import CellGrid, cell_canvas
+from ..params import Fabric
+
+DRIFT_MAX_CELLS = 0.5  # a repeat's offset beyond this (cells) is a mismatch, not drift
+QUADRATIC_BLOCKS = 16  # from this many repeats on, the drift model adds quadratic terms
+
+
+def repeat_cells(prepared, image_box: tuple[float, float, float, float]) -> CellGrid:
+    """The cells of one repeat inside the regularized box, in the box's pixels."""
+    rows, cols = prepared.grid.cells()
+    y0, x0 = image_box[0], image_box[1]
+    rh, rw = rows[-1] - rows[0], cols[-1] - cols[0]
+    # move the repeat by whole repeats so that it starts inside the box
+    dy = y0 + np.mod(rows[0] - y0, rh) - rows[0]
+    dx = x0 + np.mod(cols[0] - x0, rw) - cols[0]
+    return CellGrid(rows=rows + dy - y0, cols=cols + dx - x0)
+
+
+def shifted(cells: CellGrid, box) -> CellGrid:
+    """``cells`` (pixels of the regularized box) in the rectified image's pixels."""
+    return CellGrid(rows=cells.rows + box[0], cols=cells.cols + box[1])
+
+
+def align_cells(image: np.ndarray, cells: CellGrid) -> CellGrid:
+    """Put the cell corners on the gaps between yarns: of the four half-pitch shifts of
+    ``cells``, the one whose corners vary most and whose centres vary least (§5's cells are
+    centred on yarn crossings).
+
+    The yarn boundaries of §4.4 are valleys of the integral projection — right under front
+    light, where gaps are dark, but half a pitch off under back light, where they glow. A
+    corner window holds a gap and four yarn edges whatever the light; a centre window sits on a
+    smooth crossing. (Finer shifts, and the orientation coherence of each cell, were tried and
+    chose worse phases on the bench photos.) ``image`` (H, W, 3) linear RGB, ``cells`` a
+    CellGrid in its pixels.
+    """
+    c = 12
+    win = max(1, c // 4)
+    best, best_score = cells, -np.inf
+    for dy in (0.0, 0.5):
+        for dx in (0.0, 0.5):
+            moved = CellGrid(rows=cells.rows + dy * np.diff(cells.rows).mean(),
+                             cols=cells.cols + dx * np.diff(cells.cols).mean())
+            grey = cell_canvas(image, moved, c).mean(axis=2)
+            tiles = grey.reshape(moved.shape[0], c, moved.shape[1], c).transpose(0, 2, 1, 3)
+            centre = tiles[:, :, c // 2 - win: c // 2 + win, c // 2 - win: c // 2 + win]
+            corner = np.roll(np.roll(grey, win, axis=0), win, axis=1)
+            corner = corner.reshape(moved.shape[0], c, moved.shape[1], c).transpose(0, 2, 1, 3)[:, :, :2 * win, :2 * win]
+            score = float(corner.var(axis=(2, 3)).mean() - centre.var(axis=(2, 3)).mean())
+            if score > best_score:
+                best, best_score = moved, score
+    return best
+
+
+def correlation_shift(photo: np.ndarray, model: np.ndarray) -> np.ndarray:
+    """Circular shifts (dy, dx), canvas px, that carry ``model`` onto each of ``photo``.
+
+    ``photo`` (..., h, w) grey canvases of one period, ``model`` (h, w): the peak of their
+    circular cross-correlation, refined to sub-pixel by a parabola through it along each axis,
+    wrapped to (-h/2, h/2] × (-w/2, w/2]. photo(x) ≈ model(x - shift). Returns (..., 2).
+    """
+    a = photo - photo.mean(axis=(-2, -1), keepdims=True)
+    b = model - model.mean()
+    corr = np.real(np.fft.ifft2(np.fft.fft2(a) * np.conj(np.fft.fft2(b))))
+    h, w = corr.shape[-2:]
+    flat = corr.reshape(-1, h, w)
+    out = np.empty((flat.shape[0], 2))
+    for k, cc in enumerate(flat):
+        iy, ix = np.unravel_index(int(np.argmax(cc)), cc.shape)
+        for axis, (values, i) in enumerate(((cc[:, ix], iy), (cc[iy, :], ix))):
+            n = values.size
+            lo, mid, hi = values[(i - 1) % n], values[i], values[(i + 1) % n]
+            den = lo - 2 * mid + hi
+            pos = i + (0.5 * (lo - hi) / den if den < 0 else 0.0)
+            out[k, axis] = pos - n if pos > n / 2 else pos
+    return out.reshape(corr.shape[:-2] + (2,))
+
+
+def register_cells(image: np.ndarray, cells: CellGrid, fabric: Fabric, *, light: str,
+                   c: int = 16) -> tuple[CellGrid, tuple[float, float]]:
+    """Move ``cells`` so that the photo's repeat lines up with a render of ``fabric``.
+
+    The cells found from §4.4's boundaries can sit a fraction of a yarn off (uneven lighting,
+    bright gaps, residual perspective), and then no parameter values fit. The photo's cell
+    canvas and the render are both one period of the fabric, so their circular
+    cross-correlation (one FFT) peaks at the shift between them; the cells move by that shift
+    (sub-pixel), whole cells included, so the fabric's pattern stays right for the moved
+    cells. Returns the moved CellGrid and the shift in cells (dy, dx).
+    """
+    from ..estimate.forward import RepeatRenderer
+    from ..model.render import white_level
+
+    photo = cell_canvas(image, cells, c).mean(axis=2)
+    model = RepeatRenderer(fabric, cell_px=c, light=light, white=white_level(image)).render().mean(axis=2)
+    dy, dx = correlation_shift(photo, model) / c
+    moved = CellGrid(rows=cells.rows + dy * np.diff(cells.rows).mean(), cols=cells.cols + dx * np.diff(cells.cols).mean())
+    return moved, (float(dy), float(dx))
+
+
+def _whole_repeats(shape: tuple[int, int], cells: CellGrid) -> tuple[CellGrid, int, int]:
+    """The lattice of ``cells`` extended over every whole repeat of an image of ``shape``
+    (H, W), one pitch clear of the border: (cells of all of them, repeats down, across). A
+    photo holding less than one clear repeat gives the one in ``cells``."""
+    n_e, n_a = cells.shape
+    axes = []
+    for bounds, n, size in ((cells.rows, n_e, shape[0]), (cells.cols, n_a, shape[1])):
+        pitch = float(np.diff(bounds).mean())
+        period = n * pitch
+        start = bounds[0] - np.floor((bounds[0] - pitch) / period) * period  # first repeat clear of the edge
+        count = max(1, int(np.floor((size - pitch - start) / period)))
+        if start + period > size:
+            start, count = bounds[0], 1
+        axes.append((start + pitch * np.arange(count * n + 1), count))
+    (rows, ky), (cols, kx) = axes
+    return CellGrid(rows=rows, cols=cols), ky, kx
+
+
+def lattice_drift(blocks: np.ndarray, model: np.ndarray, c: int) -> tuple[np.ndarray, object]:
+    """How the photo's lattice drifts from a regular one, measured on its repeats.
+
+    Parameters
+    ----------
+    blocks : (ky, kx, h, w) grey canvases of the photo's repeats on a regular lattice.
+    model : (h, w) grey render of one repeat, registered on the lattice.
+    c : canvas px per cell.
+
+    Returns
+    -------
+    (coef, basis_fn): ``coef`` (terms, 2) of a smooth displacement field (dy, dx) in canvas px,
+    ``field(y, x) = basis(y, x) @ coef`` with y, x in repeats from the lattice's origin
+    (affine, plus quadratic terms when there are at least QUADRATIC_BLOCKS repeats: the
+    residue of a homography). Fitted by least squares to each repeat's
+    :func:`correlation_shift`, twice, the second time without repeats more than 3 MADs (at
+    least a tenth of a pixel) off the first fit; repeats further than DRIFT_MAX_CELLS off are
+    mismatches (a flaw, an occluded repeat) and never used.
+    """
+    ky, kx, h, w = blocks.shape
+    shifts = correlation_shift(blocks, model).reshape(-1, 2)
+    yy, xx = np.meshgrid(np.arange(ky) + 0.5, np.arange(kx) + 0.5, indexing="ij")
+    quadratic = ky * kx >= QUADRATIC_BLOCKS
+
+    def basis(y, x):
+        y, x = np.asarray(y, float).ravel(), np.asarray(x, float).ravel()
+        cols = [np.ones_like(y), y, x] + ([y * y, y * x, x * x] if quadratic else [])
+        return np.stack(cols, axis=1)
+
+    a = basis(yy, xx)
+    keep = np.all(np.abs(shifts) <= DRIFT_MAX_CELLS * c, axis=1)
+    if keep.sum() < a.shape[1]:
+        return np.zeros((a.shape[1], 2)), basis
+    coef = np.linalg.lstsq(a[keep], shifts[keep], rcond=None)[0]
+    residual = np.linalg.norm(shifts - a @ coef, axis=1)
+    mad = np.median(residual[keep])
+    refit = keep & (residual <= max(3.0 * 1.4826 * mad, 0.1))
+    if refit.sum() >= a.shape[1]:
+        coef = np.linalg.lstsq(a[refit], shifts[refit], rcond=None)[0]
+    return coef, basis
+
+
+def mean_repeat(image: np.ndarray, cells: CellGrid, c: int, model: np.ndarray | None = None) -> np.ndarray:
+    """The photo's average repeat as a cell canvas: the median over every whole repeat of
+    ``image`` (H, W, 3) on the lattice of ``cells`` (a CellGrid in its pixels), one pitch clear
+    of the border. Irregularities average out (§4.2's aim) without kernel PCA's variable
+    smoothing.
+
+    With ``model`` ((n_e*c, n_a*c, 3) render of the fabric, registered on ``cells``) each repeat
+    is first read where the lattice really is: a slightly wrong pitch or angle, or a residue of
+    perspective, moves the repeats far from ``cells`` by up to a pixel or more, and the median
+    of misaligned repeats is blurred. :func:`lattice_drift` measures that smooth drift and the
+    canvas is resampled along it. (A synthetic plain weave turned 12° under a perspective
+    camera: the true parameters score 27.1 dB against the median on the regular lattice.)
+    Returns (n_e*c, n_a*c, 3) float32.
+    """
+    n_e, n_a = cells.shape
+    lattice, ky, kx = _whole_repeats(image.shape[:2], cells)
+    canvas = cell_canvas(image, lattice, c)
+    h, w = n_e * c, n_a * c
+    if model is not None and ky * kx >= 3:
+        blocks = canvas.mean(axis=2).reshape(ky, h, kx, w).transpose(0, 2, 1, 3)
+        coef, basis = lattice_drift(blocks, np.asarray(model).mean(axis=2), c)
+        y, x = np.meshgrid((np.arange(ky * h) + 0.5) / h, (np.arange(kx * w) + 0.5) / w, indexing="ij")
+        field = (basis(y, x) @ coef).reshape(ky * h, kx * w, 2)  # canvas px
+        scale = np.array([np.diff(lattice.rows).mean(), np.diff(lattice.cols).mean()]) / c  # image px per canvas px
+        canvas = cell_canvas(image, lattice, c, offset=np.moveaxis(field * scale, 2, 0))
+    return np.median(canvas.reshape(ky, h, kx, w, 3), axis=(0, 2)).astype(np.float32)
+
+
+def dual(fabric: Fabric) -> Fabric:
+    """The fabric with every cell's state flipped and the warp's and weft's colours and radii
+    exchanged: in each cell the other yarn family is on top, in the colour that was there. A
+    cell-colour match cannot tell the two apart (a plain weave's two phases look alike cell by
+    cell); only the yarns' shapes (running across or down) can."""
+    swap = {}
+    for key in ("body_reflection", "body_subsurface", "radius"):
+        swap[f"warp.{key}"], swap[f"weft.{key}"] = fabric.get(f"weft.{key}"), fabric.get(f"warp.{key}")
+    return fabric.replace({**swap, "pattern": 1 - fabric.pattern})
+
+
+def photo_blur(fabric: Fabric, target: np.ndarray, *, light: str, spp: int) -> tuple[float, float]:
+    """σ (canvas px) of the Gaussian that makes a render of ``fabric`` most like ``target``,
+    and the MSE it leaves.
+
+    The photo is smoothed by resampling to the canvas, by the median over repeats and by the
+    camera itself; how much in all varies from photo to photo, and the MSE is very sensitive to
+    it (on a 16-px canvas: 0.0033 at σ = 1 px, 0.0025 at 1.5, 0.0053 at 2). It is measured by a
+    bounded 1-D search.
+    """
+    from scipy.optimize import minimize_scalar
+
+    from ..model.render import blurred_mse, render_numpy
+    from ..model.scene import View, build_scene
+
+    c = target.shape[0] / fabric.shape[0]
+    image = render_numpy(build_scene(fabric, View(tiles=(1, 1), size=max(target.shape[:2]), spp=spp), light=light))
+    best = minimize_scalar(lambda s: blurred_mse(image, target, s), bounds=(0.0, c / 4), method="bounded",
+                           options={"xatol": 0.02})
+    return float(best.x), float(best.fun)
+
+
+def better_of_dual(start: Fabric, target: np.ndarray, light: str, spp: int) -> tuple[Fabric, float, dict]:
+    """The pre-estimate or its :func:`dual`, whichever renders closer to the photo (each at its
+    own best blur); returns (fabric, blur_px, what was compared)."""
+    options = {"pre_estimate": start, "dual": dual(start)}
+    scores = {name: photo_blur(f, target, light=light, spp=spp) for name, f in options.items()}
+    name = min(scores, key=lambda k: scores[k][1])
+    return options[name], scores[name][0], {"chosen": name, **{k: round(v[1], 6) for k, v in scores.items()}}
