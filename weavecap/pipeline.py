@@ -21,8 +21,7 @@ import numpy as np
 from . import params as wparams
 from .errors import PhotoError
 from .fit.config import PRESETS, FitConfig, cell_px_for
-from .fit.target import (align_cells, better_of_dual, mean_repeat, photo_blur, register_cells, repeat_cells,
-                         shifted)
+from .fit.target import align_cells, dual, mean_repeat, photo_blur, register_cells, repeat_cells, shifted
 from .io import atomic_write_text
 
 REPORT_FORMAT = "weavecap.report/1"
@@ -222,14 +221,14 @@ def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), 
 
 @dataclass
 class RegisteredFit:
-    """What :func:`fit_registered` found: the last round's fit, and the target it was fitted to.
+    """One round of :func:`fit_registered`: a fit, and the registration it was fitted on.
 
     Attributes
     ----------
-    result : the last round's :class:`weavecap.fit.joint.FitResult` (its history holds every
-        round's steps)
-    target : (n_e*c, n_a*c, 3) the photo's median repeat on the last registration
-    cells : that registration, a CellGrid in the rectified photo's pixels
+    result : the round's :class:`weavecap.fit.joint.FitResult` (after :func:`fit_registered`,
+        its history holds every round's steps)
+    target : (n_e*c, n_a*c, 3) the photo's median repeat on the registration
+    cells : that registration, a CellGrid in the regularized box's pixels
     blur_px : the blur the renders were compared with
     notes : what the report records (cell shifts per round, the dual choice)
     """
@@ -238,7 +237,26 @@ class RegisteredFit:
     target: np.ndarray
     cells: object
     blur_px: float
-    notes: dict
+    notes: dict = field(default_factory=dict)
+
+
+def _fit_round(prepared, cells, fabric: wparams.Fabric, options: CaptureOptions, config: FitConfig, *, c: int,
+               fixed: frozenset[str], seed: int, budget_s: float | None) -> RegisteredFit:
+    """Register ``cells`` on a render of ``fabric``, extract the photo's median repeat there,
+    measure the blur, and fit ``fabric`` to it."""
+    from .estimate.forward import RepeatRenderer
+    from .fit.joint import fit
+    from .model.render import white_level
+
+    cells, shift = register_cells(prepared.regularized.image, cells, fabric, light=options.light, c=c)
+    model = RepeatRenderer(fabric, cell_px=c, light=options.light,
+                           white=white_level(prepared.rectification.image)).render()
+    target = mean_repeat(prepared.rectification.image, shifted(cells, prepared.regularized.box), c, model=model)
+    blur_px, _ = photo_blur(fabric, target, light=options.light, spp=config.spp)
+    result = fit(target, fabric, config=config, light=options.light, seed=seed, budget_s=budget_s, fixed=fixed,
+                 blur_px=blur_px)
+    return RegisteredFit(result=result, target=target, cells=cells, blur_px=blur_px,
+                         notes={"cell_shift": [round(v, 3) for v in shift]})
 
 
 def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptions, *, c: int,
@@ -252,40 +270,45 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
     pre-estimate, 33.7 dB on the truth). So the fit runs in ``config.registration_rounds``
     rounds, the iterations and any budget split evenly; before each, the cells are registered
     on the fabric fitted so far, the target re-extracted and the blur re-measured. Each round
-    warm-starts from the last one's best fabric.
-    """
-    from .estimate.forward import RepeatRenderer
-    from .fit.joint import fit
-    from .model.render import white_level
+    warm-starts from the best fabric so far, and the round with the lowest loss is kept.
 
+    With ``choose_dual`` the first round is run from the pre-estimate and from its
+    :func:`dual` (every cell flipped, warp and weft exchanged), and the lower loss goes on: the
+    two differ only in which way the yarns run in each cell, which a pre-estimate judged on
+    cell colours gets wrong when the colours hardly show (a pale, back-lit twill: its
+    complement). Returns the best round, with ``cells`` in the rectified photo's pixels.
+    """
     config = options.config
     rounds = max(1, config.registration_rounds)
     per_round = config.with_(iterations=max(1, config.iterations // rounds))
     t0 = time.perf_counter()
-    history: list[float] = []
-    notes: dict = {"cell_shift": []}
-    fabric, result = start, None
-    for k in range(rounds):
-        cells, shift = register_cells(prepared.regularized.image, cells, fabric, light=options.light, c=c)
-        notes["cell_shift"].append([round(v, 3) for v in shift])
-        photo_cells = shifted(cells, prepared.regularized.box)  # in the rectified photo's pixels
-        model = RepeatRenderer(fabric, cell_px=c, light=options.light,
-                               white=white_level(prepared.rectification.image)).render()
-        target = mean_repeat(prepared.rectification.image, photo_cells, c, model=model)
-        if k == 0 and choose_dual:
-            fabric, blur_px, notes["dual"] = better_of_dual(fabric, target, options.light, config.spp)
-        else:
-            blur_px, _ = photo_blur(fabric, target, light=options.light, spp=config.spp)
-        budget = None
-        if options.budget_s is not None:
-            budget = max(0.0, options.budget_s - (time.perf_counter() - t0)) / (rounds - k)
-        result = fit(target, fabric, config=per_round, light=options.light, seed=options.seed + k,
-                     budget_s=budget, fixed=fixed, blur_px=blur_px)
-        history += result.history
-        fabric = result.fabric
-    result = dataclasses.replace(result, history=history, iterations=len(history),
+    starts = {"pre_estimate": start, "dual": dual(start)} if choose_dual else {"pre_estimate": start}
+    runs = rounds + len(starts) - 1
+
+    def budget(done: int) -> float | None:
+        if options.budget_s is None:
+            return None
+        return max(0.0, options.budget_s - (time.perf_counter() - t0)) / (runs - done)
+
+    firsts = {name: _fit_round(prepared, cells, fabric, options, per_round, c=c, fixed=fixed, seed=options.seed,
+                               budget_s=budget(k)) for k, (name, fabric) in enumerate(starts.items())}
+    chosen = min(firsts, key=lambda name: firsts[name].result.loss)
+    best = firsts[chosen]
+    notes = {"cell_shift": [best.notes["cell_shift"]]}
+    if choose_dual:
+        notes["dual"] = {"chosen": chosen, **{name: round(r.result.loss, 6) for name, r in firsts.items()}}
+    history = list(best.result.history)
+    for k in range(1, rounds):
+        last = _fit_round(prepared, best.cells, best.result.fabric, options, per_round, c=c, fixed=fixed,
+                          seed=options.seed + k, budget_s=budget(len(starts) + k - 1))
+        notes["cell_shift"].append(last.notes["cell_shift"])
+        history += last.result.history
+        if last.result.loss < best.result.loss:  # every round scores against the same photo
+            best = last
+    result = dataclasses.replace(best.result, history=history, iterations=len(history),
                                  seconds=time.perf_counter() - t0)
-    return RegisteredFit(result=result, target=target, cells=photo_cells, blur_px=blur_px, notes=notes)
+    return RegisteredFit(result=result, target=best.target, cells=shifted(best.cells, prepared.regularized.box),
+                         blur_px=best.blur_px, notes=notes)
 
 
 def loss_plot(history: list[float], *, size: tuple[int, int] = (240, 400)) -> np.ndarray:

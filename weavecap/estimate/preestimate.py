@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..model.render import white_level
 from ..params import Fabric, from_dict
 from .cells import CellGrid, cell_canvas
 from .colour import Colours, estimate_colours
@@ -125,6 +126,7 @@ def pre_estimate(image: np.ndarray, grid: CellGrid, *, light: str = "both", use_
     grey = _grey(estimate_colours(canvas, rr.fabric, cell_px=PATTERN_CELL_PX, renderer=rr))
     rr.set({"warp.body_reflection": grey, "warp.body_subsurface": grey,
             "weft.body_reflection": grey, "weft.body_subsurface": grey})
+    rr.white = white_level(image)  # from here on renders are compared as photographed (clipped)
     first = anneal_pattern(canvas, rr, start=start, polish=False)
     timings["pattern"] = time.perf_counter() - t
 
@@ -160,8 +162,8 @@ def pre_estimate(image: np.ndarray, grid: CellGrid, *, light: str = "both", use_
     timings["parameters"] = time.perf_counter() - t
 
     t = time.perf_counter()
-    result = anneal_pattern(canvas, RepeatRenderer(fabric, cell_px=PATTERN_CELL_PX, light=light),
-                            start=first.pattern)
+    result = anneal_pattern(canvas, RepeatRenderer(fabric, cell_px=PATTERN_CELL_PX, light=light,
+                                                   white=white_level(image)), start=first.pattern)
     fabric, colours, crr = _coloured(fabric.replace({"pattern": result.pattern}), image, grid, light)
     mse = float(np.mean(np.square(crr.render() - colour_canvas)))
     timings["refine"] = time.perf_counter() - t

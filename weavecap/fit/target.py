@@ -110,8 +110,13 @@ def register_cells(image: np.ndarray, cells: CellGrid, fabric: Fabric, *, light:
     photo = cell_canvas(image, cells, c).mean(axis=2)
     model = RepeatRenderer(fabric, cell_px=c, light=light, white=white_level(image)).render().mean(axis=2)
     dy, dx = correlation_shift(photo, model) / c
-    moved = CellGrid(rows=cells.rows + dy * np.diff(cells.rows).mean(), cols=cells.cols + dx * np.diff(cells.cols).mean())
-    return moved, (float(dy), float(dx))
+    rows = cells.rows + dy * np.diff(cells.rows).mean()
+    cols = cells.cols + dx * np.diff(cells.cols).mean()
+    # back by whole repeats to start inside the image: the pattern's phase is the same there,
+    # and a repeat pushed past the border would be read from its reflection next time
+    rows -= np.floor(rows[0] / (rows[-1] - rows[0])) * (rows[-1] - rows[0])
+    cols -= np.floor(cols[0] / (cols[-1] - cols[0])) * (cols[-1] - cols[0])
+    return CellGrid(rows=rows, cols=cols), (float(dy), float(dx))
 
 
 def _whole_repeats(shape: tuple[int, int], cells: CellGrid) -> tuple[CellGrid, int, int]:
@@ -232,12 +237,3 @@ def photo_blur(fabric: Fabric, target: np.ndarray, *, light: str, spp: int) -> t
     best = minimize_scalar(lambda s: blurred_mse(image, target, s), bounds=(0.0, c / 4), method="bounded",
                            options={"xatol": 0.02})
     return float(best.x), float(best.fun)
-
-
-def better_of_dual(start: Fabric, target: np.ndarray, light: str, spp: int) -> tuple[Fabric, float, dict]:
-    """The pre-estimate or its :func:`dual`, whichever renders closer to the photo (each at its
-    own best blur); returns (fabric, blur_px, what was compared)."""
-    options = {"pre_estimate": start, "dual": dual(start)}
-    scores = {name: photo_blur(f, target, light=light, spp=spp) for name, f in options.items()}
-    name = min(scores, key=lambda k: scores[k][1])
-    return options[name], scores[name][0], {"chosen": name, **{k: round(v[1], 6) for k, v in scores.items()}}
