@@ -61,7 +61,7 @@ def test_register_cells_moves_misplaced_cells_onto_the_repeat(twill):
     photo = tiled_photo(model, (4, 4), pitch=C, drift=(0.0, 0.0), origin=(10.0, 10.0))
     truth = CellGrid.regular(fabric.shape, C, origin=(10.0, 10.0))
     off = CellGrid.regular(fabric.shape, C, origin=(10.0 + 5.0, 10.0 - 4.0))
-    moved, shift = register_cells(photo, off, fabric, light="both", c=C)
+    moved, shift = register_cells(photo, off, model, C)
     # the cells land on the truth's lattice: up to whole repeats, within a fifth of a pixel
     period = np.array([fabric.shape[0] * C, fabric.shape[1] * C])
     err = (np.array([moved.rows[0] - truth.rows[0], moved.cols[0] - truth.cols[0]]) + period / 2) % period - period / 2

@@ -248,15 +248,50 @@ def _fit_round(prepared, cells, fabric: wparams.Fabric, options: CaptureOptions,
     from .fit.joint import fit
     from .model.render import white_level
 
-    cells, shift = register_cells(prepared.regularized.image, cells, fabric, light=options.light, c=c)
     model = RepeatRenderer(fabric, cell_px=c, light=options.light,
                            white=white_level(prepared.rectification.image)).render()
+    cells, shift = register_cells(prepared.regularized.image, cells, model, c)
     target = mean_repeat(prepared.rectification.image, shifted(cells, prepared.regularized.box), c, model=model)
     blur_px, _ = photo_blur(fabric, target, light=options.light, spp=config.spp)
     result = fit(target, fabric, config=config, light=options.light, seed=seed, budget_s=budget_s, fixed=fixed,
                  blur_px=blur_px)
     return RegisteredFit(result=result, target=target, cells=cells, blur_px=blur_px,
                          notes={"cell_shift": [round(v, 3) for v in shift]})
+
+
+def best_named_weave(prepared, cells, start: wparams.Fabric, options: CaptureOptions, *, c: int) -> np.ndarray | None:
+    """The named weave (:func:`weavecap.estimate.sampling.regular_weaves`) of ``start``'s repeat
+    shape that explains the photo best with ``start``'s other parameters, if it explains it
+    better than ``start``'s own pattern does; else None.
+
+    §5.1's annealing flips one cell at a time, and on a large repeat (a satin of 8) it can
+    settle in a pattern no single flip improves. Each named weave is scored as the fit would
+    see it: the cells registered on its render, the photo's median repeat there, and the
+    MSE between the two (one render each). The pattern's phase does not matter: the
+    registration moves the cells to it.
+    """
+    from .estimate.forward import RepeatRenderer
+    from .estimate.sampling import regular_weaves
+    from .estimate.weave_name import equal_up_to_shift
+    from .model.render import white_level
+
+    weaves = [p for p in regular_weaves(start.shape) if not equal_up_to_shift(p, start.pattern)]
+    if not weaves:
+        return None
+    rect = prepared.rectification.image
+    rr = RepeatRenderer(start, cell_px=c, light=options.light, white=white_level(rect))
+
+    def score(pattern: np.ndarray) -> float:
+        rr.set_pattern(pattern)
+        model = rr.render()
+        moved, _ = register_cells(prepared.regularized.image, cells, model, c)
+        target = mean_repeat(rect, shifted(moved, prepared.regularized.box), c, model=model)
+        return float(np.mean(np.square(model - target)))
+
+    own = score(start.pattern)
+    scores = [score(p) for p in weaves]
+    k = int(np.argmin(scores))
+    return weaves[k] if scores[k] < own else None
 
 
 def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptions, *, c: int,
@@ -276,13 +311,19 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
     :func:`dual` (every cell flipped, warp and weft exchanged), and the lower loss goes on: the
     two differ only in which way the yarns run in each cell, which a pre-estimate judged on
     cell colours gets wrong when the colours hardly show (a pale, back-lit twill: its
-    complement). Returns the best round, with ``cells`` in the rectified photo's pixels.
+    complement). A third start is the named weave of the same repeat that explains the photo
+    best, when it explains it better than the pre-estimate (:func:`best_named_weave`). Returns
+    the best round, with ``cells`` in the rectified photo's pixels.
     """
     config = options.config
     rounds = max(1, config.registration_rounds)
     per_round = config.with_(iterations=max(1, config.iterations // rounds))
     t0 = time.perf_counter()
     starts = {"pre_estimate": start, "dual": dual(start)} if choose_dual else {"pre_estimate": start}
+    if choose_dual:
+        named = best_named_weave(prepared, cells, start, options, c=c)
+        if named is not None:
+            starts["named_weave"] = start.replace({"pattern": named})
     runs = rounds + len(starts) - 1
 
     def budget(done: int) -> float | None:
@@ -296,7 +337,7 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
     best = firsts[chosen]
     notes = {"cell_shift": [best.notes["cell_shift"]]}
     if choose_dual:
-        notes["dual"] = {"chosen": chosen, **{name: round(r.result.loss, 6) for name, r in firsts.items()}}
+        notes["start"] = {"chosen": chosen, **{name: round(r.result.loss, 6) for name, r in firsts.items()}}
     history = list(best.result.history)
     for k in range(1, rounds):
         last = _fit_round(prepared, best.cells, best.result.fabric, options, per_round, c=c, fixed=fixed,

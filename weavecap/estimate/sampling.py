@@ -33,6 +33,33 @@ def satin(n: int, step: int) -> np.ndarray:
     return p
 
 
+def regular_weaves(shape: tuple[int, int]) -> list[np.ndarray]:
+    """Every named weave with a (wefts, warps) repeat of ``shape``, both faces, distinct up to
+    a cyclic shift: plain (2×2), twills a/b in both directions and satins n/s (n×n), basket
+    k/k (2k×2k), ribs (2k×2 and 2×2k). Empty for shapes no named weave has."""
+    from .weave_name import equal_up_to_shift
+
+    n_e, n_a = shape
+    found: list[np.ndarray] = []
+    if n_e == n_a:
+        n = n_e
+        if n == 2:
+            found.append(np.array([[1, 0], [0, 1]], dtype=np.uint8))
+        found += [twill(a, n - a, step=d) for a in range(1, n) for d in (-1, 1)] if n >= 3 else []
+        found += [satin(n, k) for k in range(2, n - 1) if gcd(k, n) == 1]
+        if n % 2 == 0 and n >= 4:
+            found.append(np.kron(np.array([[1, 0], [0, 1]], dtype=np.uint8), np.ones((n // 2, n // 2), dtype=np.uint8)))
+    for rows, cols in ((n_e // 2, 1), (1, n_a // 2)):
+        if min(n_e, n_a) == 2 and max(n_e, n_a) >= 4 and (rows * 2, cols * 2) == shape:
+            found.append(np.kron(np.array([[1, 0], [0, 1]], dtype=np.uint8), np.ones((rows, cols), dtype=np.uint8)))
+    distinct: list[np.ndarray] = []
+    for p in found + [1 - p for p in found]:
+        p = p.astype(np.uint8)
+        if not any(equal_up_to_shift(p, q) for q in distinct):
+            distinct.append(p)
+    return distinct
+
+
 def interlaces(pattern: np.ndarray) -> bool:
     """Every weft and every warp has both states (no yarn floats over the whole repeat)."""
     p = np.asarray(pattern)

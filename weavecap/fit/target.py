@@ -93,9 +93,9 @@ def correlation_shift(photo: np.ndarray, model: np.ndarray) -> np.ndarray:
     return out.reshape(corr.shape[:-2] + (2,))
 
 
-def register_cells(image: np.ndarray, cells: CellGrid, fabric: Fabric, *, light: str,
-                   c: int = 16) -> tuple[CellGrid, tuple[float, float]]:
-    """Move ``cells`` so that the photo's repeat lines up with a render of ``fabric``.
+def register_cells(image: np.ndarray, cells: CellGrid, model: np.ndarray, c: int) -> tuple[CellGrid, tuple[float, float]]:
+    """Move ``cells`` so that the photo's repeat lines up with ``model``, a render of the fabric
+    ((n_e*c, n_a*c, 3) at ``c`` px per cell, as photographed).
 
     The cells found from §4.4's boundaries can sit a fraction of a yarn off (uneven lighting,
     bright gaps, residual perspective), and then no parameter values fit. The photo's cell
@@ -104,11 +104,8 @@ def register_cells(image: np.ndarray, cells: CellGrid, fabric: Fabric, *, light:
     (sub-pixel), whole cells included, so the fabric's pattern stays right for the moved
     cells. Returns the moved CellGrid and the shift in cells (dy, dx).
     """
-    from ..estimate.forward import RepeatRenderer
-    from ..model.render import white_level
-
     photo = cell_canvas(image, cells, c).mean(axis=2)
-    model = RepeatRenderer(fabric, cell_px=c, light=light, white=white_level(image)).render().mean(axis=2)
+    model = np.asarray(model).mean(axis=2)
     dy, dx = correlation_shift(photo, model) / c
     rows = cells.rows + dy * np.diff(cells.rows).mean()
     cols = cells.cols + dx * np.diff(cells.cols).mean()

@@ -1,0 +1,27 @@
+"""The library of named weaves the fit tries as starts (weavecap.estimate.sampling.regular_weaves)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from weavecap.estimate.sampling import interlaces, regular_weaves, satin, twill
+from weavecap.estimate.weave_name import equal_up_to_shift, weave_name
+
+
+@pytest.mark.parametrize("shape, count", [((2, 2), 1), ((3, 3), 4), ((5, 5), 12), ((2, 6), 1), ((4, 11), 0), ((2, 3), 0)])
+def test_every_named_weave_of_a_shape_once(shape, count):
+    weaves = regular_weaves(shape)
+    assert len(weaves) == count
+    for i, p in enumerate(weaves):
+        assert p.shape == shape and interlaces(p)
+        assert not any(equal_up_to_shift(p, q) for q in weaves[i + 1:])
+
+
+def test_the_library_holds_the_satins_and_twills_by_name():
+    eight = regular_weaves((8, 8))
+    for pattern in (satin(8, 3), 1 - satin(8, 5), twill(3, 5, step=-1), twill(6, 2)):
+        assert any(equal_up_to_shift(pattern, p) for p in eight)
+    names = {weave_name(p).split()[0] for p in eight}
+    assert names == {"twill", "satin", "basket"}
+    assert not any(np.array_equal(p, 1 - p) for p in eight)
