@@ -9,7 +9,7 @@ import click
 
 
 @click.command(context_settings={"max_content_width": 100})
-@click.option("--quick", is_flag=True, help="A smaller fit bench: 3 photos, draft and normal presets (~3 min).")
+@click.option("--quick", is_flag=True, help="A smaller fit bench: 3 photos, draft and normal presets (~2 min).")
 @click.option("--render/--no-render", "do_render", default=True, show_default=True,
               help="Measure the forward model (cold and warm renders, fit steps, memory).")
 @click.option("--fit/--no-fit", "do_fit", default=True, show_default=True,
@@ -25,7 +25,7 @@ def bench(quick, do_render, do_fit, out):
     Fit: synthetic photos with known truth (plain, twills, satins 5 and 8, basket, random
     patterns up to 8x8; about 1 megapixel, turned, mild perspective, noise, JPEG) are captured
     end to end at each preset and compared with the truth. Writes OUT/results.json and
-    OUT/speed_vs_error.png. The full run takes about half an hour.
+    OUT/speed_vs_error.png. The full fit bench takes about 12 minutes on a 2-core machine.
 
     \b
     Examples:
