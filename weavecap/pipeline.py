@@ -331,8 +331,15 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
             return None
         return max(0.0, options.budget_s - (time.perf_counter() - t0)) / (runs - done)
 
-    firsts = {name: _fit_round(prepared, cells, fabric, options, per_round, c=c, fixed=fixed, seed=options.seed,
-                               budget_s=budget(k)) for k, (name, fabric) in enumerate(starts.items())}
+    def spent() -> bool:  # with --budget, no further start or round begins once it is used up
+        return options.budget_s is not None and time.perf_counter() - t0 >= options.budget_s
+
+    firsts: dict[str, RegisteredFit] = {}
+    for k, (name, fabric) in enumerate(starts.items()):
+        if firsts and spent():
+            break
+        firsts[name] = _fit_round(prepared, cells, fabric, options, per_round, c=c, fixed=fixed, seed=options.seed,
+                                  budget_s=budget(k))
     chosen = min(firsts, key=lambda name: firsts[name].result.loss)
     best = firsts[chosen]
     notes = {"cell_shift": [best.notes["cell_shift"]]}
@@ -340,6 +347,8 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
         notes["start"] = {"chosen": chosen, **{name: round(r.result.loss, 6) for name, r in firsts.items()}}
     history = list(best.result.history)
     for k in range(1, rounds):
+        if spent():
+            break
         last = _fit_round(prepared, best.cells, best.result.fabric, options, per_round, c=c, fixed=fixed,
                           seed=options.seed + k, budget_s=budget(len(starts) + k - 1))
         notes["cell_shift"].append(last.notes["cell_shift"])
