@@ -259,10 +259,20 @@ def _fit_round(prepared, cells, fabric: wparams.Fabric, options: CaptureOptions,
                          notes={"cell_shift": [round(v, 3) for v in shift]})
 
 
-def best_named_weave(prepared, cells, start: wparams.Fabric, options: CaptureOptions, *, c: int) -> np.ndarray | None:
+def is_named_weave(pattern: np.ndarray) -> bool:
+    """The pattern is, up to a cyclic shift, one of the named weaves of its shape."""
+    from .estimate.sampling import regular_weaves
+    from .estimate.weave_name import equal_up_to_shift
+
+    return any(equal_up_to_shift(pattern, p) for p in regular_weaves(pattern.shape))
+
+
+def best_named_weave(prepared, cells, start: wparams.Fabric, options: CaptureOptions, *, c: int,
+                     tolerance: float = 0.0) -> np.ndarray | None:
     """The named weave (:func:`weavecap.estimate.sampling.regular_weaves`) of ``start``'s repeat
     shape that explains the photo best with ``start``'s other parameters, if it explains it
-    better than ``start``'s own pattern does; else None.
+    better than ``start``'s own pattern does (or at most ``tolerance`` worse, as a fraction of
+    the MSE); else None.
 
     §5.1's annealing flips one cell at a time, and on a large repeat (a satin of 8) it can
     settle in a pattern no single flip improves. Each named weave is scored as the fit would
@@ -291,7 +301,7 @@ def best_named_weave(prepared, cells, start: wparams.Fabric, options: CaptureOpt
     own = score(start.pattern)
     scores = [score(p) for p in weaves]
     k = int(np.argmin(scores))
-    return weaves[k] if scores[k] < own else None
+    return weaves[k] if scores[k] < own * (1.0 + tolerance) else None
 
 
 def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptions, *, c: int,
@@ -312,8 +322,11 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
     two differ only in which way the yarns run in each cell, which a pre-estimate judged on
     cell colours gets wrong when the colours hardly show (a pale, back-lit twill: its
     complement). A third start is the named weave of the same repeat that explains the photo
-    best, when it explains it better than the pre-estimate (:func:`best_named_weave`). Returns
-    the best round, with ``cells`` in the rectified photo's pixels.
+    best, when it explains it better than the pre-estimate (:func:`best_named_weave`). At the
+    end, a fitted pattern that is no named weave is tried against the best named weave of its
+    shape, fitted with that pattern fixed; within ``config.named_weave_tolerance`` of the loss,
+    the named weave is kept. Returns the best round, with ``cells`` in the rectified photo's
+    pixels.
     """
     config = options.config
     rounds = max(1, config.registration_rounds)
@@ -324,7 +337,7 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
         named = best_named_weave(prepared, cells, start, options, c=c)
         if named is not None:
             starts["named_weave"] = start.replace({"pattern": named})
-    runs = rounds + len(starts) - 1
+    runs = rounds + len(starts)  # and one more round for a named weave
 
     def budget(done: int) -> float | None:
         if options.budget_s is None:
@@ -355,6 +368,18 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
         history += last.result.history
         if last.result.loss < best.result.loss:  # every round scores against the same photo
             best = last
+    if choose_dual and not spent() and not is_named_weave(best.result.fabric.pattern):
+        named = best_named_weave(prepared, best.cells, best.result.fabric, options, c=c,
+                                 tolerance=config.named_weave_tolerance)
+        if named is not None:
+            last = _fit_round(prepared, best.cells, best.result.fabric.replace({"pattern": named}), options, per_round,
+                              c=c, fixed=fixed | {"pattern"}, seed=options.seed + rounds, budget_s=budget(runs - 1))
+            history += last.result.history
+            taken = last.result.loss <= best.result.loss * (1.0 + config.named_weave_tolerance)
+            notes["named_weave"] = {"pattern": named.astype(int).tolist(), "loss": round(last.result.loss, 6),
+                                    "fitted_loss": round(best.result.loss, 6), "taken": taken}
+            if taken:
+                best = last
     result = dataclasses.replace(best.result, history=history, iterations=len(history),
                                  seconds=time.perf_counter() - t0)
     return RegisteredFit(result=result, target=best.target, cells=shifted(best.cells, prepared.regularized.box),

@@ -38,6 +38,10 @@ class FitConfig:
     registration_rounds : the capture fits in this many rounds, re-registering the photo's
         cells on the fabric fitted so far before each (:func:`weavecap.pipeline.fit_registered`);
         the iterations are split evenly between them
+    named_weave_tolerance : a fitted custom pattern gives way to the named weave of its shape
+        (plain, twill, satin, basket, rib) when that, fitted with its pattern fixed, leaves a
+        loss at most this fraction higher: a named weave is far likelier a priori than one that
+        differs from it in a cell or two
     """
 
     iterations: int = 120
@@ -57,6 +61,7 @@ class FitConfig:
     converge_window: int = 25
     converge_tol: float = 2e-3
     registration_rounds: int = 3
+    named_weave_tolerance: float = 0.05
 
     def with_(self, **changes) -> "FitConfig":
         return replace(self, **changes)
