@@ -25,3 +25,14 @@ def test_the_library_holds_the_satins_and_twills_by_name():
     names = {weave_name(p).split()[0] for p in eight}
     assert names == {"twill", "satin", "basket"}
     assert not any(np.array_equal(p, 1 - p) for p in eight)
+
+
+def test_a_named_weave_is_recognised_at_any_phase_and_a_custom_one_is_not():
+    from weavecap.pipeline import is_named_weave
+
+    assert is_named_weave(np.roll(satin(8, 3), (2, 5), axis=(0, 1)))
+    assert is_named_weave(1 - twill(2, 3, step=-1))
+    custom = satin(5, 2)
+    custom[0, 1] ^= 1  # one cell off a satin
+    assert not is_named_weave(custom)
+    assert not is_named_weave(np.array([[0, 1, 1], [1, 0, 0]], dtype=np.uint8))
