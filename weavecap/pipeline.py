@@ -179,7 +179,7 @@ def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), 
         + (f", {options.budget_s:g} s budget" if options.budget_s else "") + ")")
     t = time.perf_counter()
     fitted = fit_registered(prepared, cells, start, options, c=c, fixed=fixed,
-                            choose_dual=options.pattern is None and options.start_from is None)
+                            explore_patterns=options.pattern is None and options.start_from is None)
     result, blur_px, target, photo_cells = fitted.result, fitted.blur_px, fitted.target, fitted.cells
     report["pre_estimation"].update(fitted.notes)
     timings["fit"] = time.perf_counter() - t
@@ -240,19 +240,27 @@ class RegisteredFit:
     notes: dict = field(default_factory=dict)
 
 
+def _registered_target(prepared, cells, model: np.ndarray, c: int):
+    """The cells registered on ``model`` (a render of one repeat as photographed, ``c`` px per
+    cell) and the photo's median repeat there: (cells in the regularized box's pixels, shift in
+    cells, target (n_e*c, n_a*c, 3))."""
+    cells, shift = register_cells(prepared.regularized.image, cells, model, c)
+    target = mean_repeat(prepared.rectification.image, shifted(cells, prepared.regularized.box), c, model=model)
+    return cells, shift, target
+
+
 def _fit_round(prepared, cells, fabric: wparams.Fabric, options: CaptureOptions, config: FitConfig, *, c: int,
                fixed: frozenset[str], seed: int, budget_s: float | None) -> RegisteredFit:
     """Register ``cells`` on a render of ``fabric``, extract the photo's median repeat there,
-    measure the blur, and fit ``fabric`` to it."""
-    from .estimate.forward import RepeatRenderer
+    measure the blur, and fit ``fabric`` to it. One render serves all three."""
+    from .estimate.forward import BLUR_CELLS, RepeatRenderer
     from .fit.joint import fit
-    from .model.render import white_level
+    from .model.render import as_photographed, white_level
 
-    model = RepeatRenderer(fabric, cell_px=c, light=options.light,
-                           white=white_level(prepared.rectification.image)).render()
-    cells, shift = register_cells(prepared.regularized.image, cells, model, c)
-    target = mean_repeat(prepared.rectification.image, shifted(cells, prepared.regularized.box), c, model=model)
-    blur_px, _ = photo_blur(fabric, target, light=options.light, spp=config.spp)
+    image = RepeatRenderer(fabric, cell_px=c, light=options.light, spp=config.spp, blur_cells=0.0).render()
+    model = as_photographed(image, BLUR_CELLS * c, white_level(prepared.rectification.image))
+    cells, shift, target = _registered_target(prepared, cells, model, c)
+    blur_px, _ = photo_blur(image, target, c)
     result = fit(target, fabric, config=config, light=options.light, seed=seed, budget_s=budget_s, fixed=fixed,
                  blur_px=blur_px)
     return RegisteredFit(result=result, target=target, cells=cells, blur_px=blur_px,
@@ -288,14 +296,12 @@ def best_named_weave(prepared, cells, start: wparams.Fabric, options: CaptureOpt
     weaves = [p for p in regular_weaves(start.shape) if not equal_up_to_shift(p, start.pattern)]
     if not weaves:
         return None
-    rect = prepared.rectification.image
-    rr = RepeatRenderer(start, cell_px=c, light=options.light, white=white_level(rect))
+    rr = RepeatRenderer(start, cell_px=c, light=options.light, white=white_level(prepared.rectification.image))
 
     def score(pattern: np.ndarray) -> float:
         rr.set_pattern(pattern)
         model = rr.render()
-        moved, _ = register_cells(prepared.regularized.image, cells, model, c)
-        target = mean_repeat(rect, shifted(moved, prepared.regularized.box), c, model=model)
+        _, _, target = _registered_target(prepared, cells, model, c)
         return float(np.mean(np.square(model - target)))
 
     own = score(start.pattern)
@@ -305,7 +311,7 @@ def best_named_weave(prepared, cells, start: wparams.Fabric, options: CaptureOpt
 
 
 def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptions, *, c: int,
-                   fixed: frozenset[str], choose_dual: bool) -> RegisteredFit:
+                   fixed: frozenset[str], explore_patterns: bool) -> RegisteredFit:
     """The joint fit (§6), alternating with the registration of the photo's cells.
 
     The target is the photo's median repeat on cells registered against a render of the
@@ -317,7 +323,8 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
     on the fabric fitted so far, the target re-extracted and the blur re-measured. Each round
     warm-starts from the best fabric so far, and the round with the lowest loss is kept.
 
-    With ``choose_dual`` the first round is run from the pre-estimate and from its
+    With ``explore_patterns`` (the pattern is free and the start is the pre-estimate) the first
+    round is run from the pre-estimate and from its
     :func:`dual` (every cell flipped, warp and weft exchanged), and the lower loss goes on: the
     two differ only in which way the yarns run in each cell, which a pre-estimate judged on
     cell colours gets wrong when the colours hardly show (a pale, back-lit twill: its
@@ -332,8 +339,8 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
     rounds = max(1, config.registration_rounds)
     per_round = config.with_(iterations=max(1, config.iterations // rounds))
     t0 = time.perf_counter()
-    starts = {"pre_estimate": start, "dual": dual(start)} if choose_dual else {"pre_estimate": start}
-    if choose_dual:
+    starts = {"pre_estimate": start, "dual": dual(start)} if explore_patterns else {"pre_estimate": start}
+    if explore_patterns:
         named = best_named_weave(prepared, cells, start, options, c=c)
         if named is not None:
             starts["named_weave"] = start.replace({"pattern": named})
@@ -356,7 +363,7 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
     chosen = min(firsts, key=lambda name: firsts[name].result.loss)
     best = firsts[chosen]
     notes = {"cell_shift": [best.notes["cell_shift"]]}
-    if choose_dual:
+    if explore_patterns:
         notes["start"] = {"chosen": chosen, **{name: round(r.result.loss, 6) for name, r in firsts.items()}}
     history = list(best.result.history)
     for k in range(1, rounds):
@@ -368,7 +375,7 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
         history += last.result.history
         if last.result.loss < best.result.loss:  # every round scores against the same photo
             best = last
-    if choose_dual and not spent() and not is_named_weave(best.result.fabric.pattern):
+    if explore_patterns and not spent() and not is_named_weave(best.result.fabric.pattern):
         named = best_named_weave(prepared, best.cells, best.result.fabric, options, c=c,
                                  tolerance=config.named_weave_tolerance)
         if named is not None:

@@ -215,22 +215,20 @@ def dual(fabric: Fabric) -> Fabric:
     return fabric.replace({**swap, "pattern": 1 - fabric.pattern})
 
 
-def photo_blur(fabric: Fabric, target: np.ndarray, *, light: str, spp: int) -> tuple[float, float]:
-    """σ (canvas px) of the Gaussian that makes a render of ``fabric`` most like ``target``,
-    and the MSE it leaves.
+def photo_blur(image: np.ndarray, target: np.ndarray, c: int) -> tuple[float, float]:
+    """σ (canvas px) of the Gaussian that makes ``image``, an unblurred render of one repeat
+    at ``c`` px per cell (same shape as ``target``), most like ``target``, and the MSE it
+    leaves.
 
     The photo is smoothed by resampling to the canvas, by the median over repeats and by the
     camera itself; how much in all varies from photo to photo, and the MSE is very sensitive to
     it (on a 16-px canvas: 0.0033 at σ = 1 px, 0.0025 at 1.5, 0.0053 at 2). It is measured by a
-    bounded 1-D search.
+    bounded 1-D search over [0, c/4].
     """
     from scipy.optimize import minimize_scalar
 
-    from ..model.render import blurred_mse, render_numpy
-    from ..model.scene import View, build_scene
+    from ..model.render import blurred_mse
 
-    c = target.shape[0] / fabric.shape[0]
-    image = render_numpy(build_scene(fabric, View(tiles=(1, 1), size=max(target.shape[:2]), spp=spp), light=light))
     best = minimize_scalar(lambda s: blurred_mse(image, target, s), bounds=(0.0, c / 4), method="bounded",
                            options={"xatol": 0.02})
     return float(best.x), float(best.fun)

@@ -231,9 +231,9 @@ def white_level(target: np.ndarray) -> float:
 
 def as_photographed(image: np.ndarray, blur_px: float, white: float = 1.0) -> np.ndarray:
     """A render (H, W, 3) as the photo shows it: clipped at the sensor's ``white`` level, then
-    blurred by :func:`blur`. Bright gaps under a back light and specular glints render far
-    above 1 (4 on a pale satin), while the photo clips them; compared unclipped, those pixels
-    alone cost the true parameters 20 dB."""
+    blurred by :func:`blur`. Back-lit gaps and clear yarns render far above 1 (4 on a pale
+    satin), while the photo clips them; compared unclipped, they cost the true parameters of
+    a synthetic satin 8 12 dB (11.8 against 24.0 dB)."""
     return blur(np.minimum(image, white), blur_px)
 
 
