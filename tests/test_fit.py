@@ -108,3 +108,27 @@ def test_every_radius_mode_moves_a_wrong_radius_towards_the_truth(mode):
     result = fit(target, start, config=config, radius_mode=mode, fixed=frozenset({"pattern", "plies", "fibers"}))
     moved = [abs(result.fabric.get(k) - truth.get(k)) < 1.0 for k in ("warp.radius", "weft.radius")]
     assert any(moved), result.moves
+
+
+@pytest.mark.parametrize("fixture", ["twill_2_1.json", "plain.json"])
+def test_plies_scan_finds_the_true_count(fixture):
+    from weavecap.fit.joint import scan_plies
+    from weavecap.model.render import blurred_mse
+
+    truth = params.load(FIXTURES / fixture).replace({"plies": 5, "shadowing.ply": 0.8})
+    c = 16
+    target = canvas_of(truth, c)
+    fs = build_scene(truth.replace({"plies": 2}), View(tiles=(1, 1), size=c * max(truth.shape), spp=8))
+    out = scan_plies(fs, lambda: blurred_mse(render_numpy(fs), target))
+    assert fs.to_fabric().plies == 5 and out == {"renders": 6, "changed": 1}
+    assert blurred_mse(render_numpy(fs), target) < 1e-6
+
+
+def test_the_fit_scans_plies_only_when_they_are_free():
+    truth = params.load(FIXTURES / "plain.json")
+    config = PRESETS["draft"].with_(iterations=6, plies_scans=(0.5,))
+    target = canvas_of(truth, cell_px_for(config, truth.shape))
+    free = fit(target, truth.replace({"plies": 1}), config=config, fixed=frozenset({"pattern"}))
+    held = fit(target, truth.replace({"plies": 1}), config=config, fixed=frozenset({"pattern", "plies"}))
+    assert free.moves["plies_scan"]["scans"] == 1 and "plies_scan" not in held.moves
+    assert held.fabric.plies == 1

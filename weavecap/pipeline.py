@@ -115,6 +115,7 @@ def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), 
     from .estimate.cells import cell_canvas
     from .estimate.preestimate import pre_estimate
     from .estimate.weave_name import weave_name
+    from .fit.uncertainty import DETERMINED_SE, standard_errors
     from .model.render import as_photographed, render_numpy, white_level
     from .model.scene import View, build_scene
     from .noise import fit_noise
@@ -193,6 +194,11 @@ def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), 
     fabric = dataclasses.replace(result.fabric, noise=noise) if noise["gaussians"] else result.fabric
     pitch = prepared.grid.pitch_px
     timings["noise"] = time.perf_counter() - t
+
+    say("measuring how well the photo determines each parameter")
+    t = time.perf_counter()
+    errors = standard_errors(result.fabric, target, blur_px=blur_px, light=options.light, spp=config.spp)
+    timings["uncertainty"] = time.perf_counter() - t
     timings["total"] = time.perf_counter() - t0
 
     report.update(status="ok", weave=weave_name(fabric.pattern))
@@ -201,6 +207,8 @@ def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), 
         "pattern_confidence": round(confidence, 4), "mse": result.loss, "stopped": result.stopped,
         "seconds": round(result.seconds, 3), "cell_px": c, "spp": config.spp, "moves": result.moves,
         "pattern_fixed": options.pattern is not None,
+        "parameters": {key: {"standard_error": round(se, 4) if np.isfinite(se) else None,
+                             "determined": bool(se <= DETERMINED_SE)} for key, se in errors.items()},
     }
     report["modelled"] = {
         "light_rig": options.light,

@@ -30,6 +30,8 @@ class FitConfig:
     pattern_moves : propose flips of pattern cells (off when the pattern is given)
     pattern_sweeps : fractions of the steps after which the pattern is re-annealed (§5.1's
         batched T = 0 sweeps with the fit's current values)
+    plies_scans : fractions of the steps after which the number of plies is scanned over its
+        whole range with everything else fixed (:func:`weavecap.fit.joint.scan_plies`)
     radius_step : first step of the radius search (and size of a radius proposal when radii
         are annealed), Algorithm 1 units; radius_min_step: the search stops below it
     radius_every : one radius search round every this many gradient steps
@@ -55,6 +57,7 @@ class FitConfig:
     anneal_every: int = 2
     pattern_moves: bool = True
     pattern_sweeps: tuple[float, ...] = (0.3, 0.7)
+    plies_scans: tuple[float, ...] = (0.3, 0.7)
     radius_step: float = 0.5
     radius_min_step: float = 0.04
     radius_every: int = 6

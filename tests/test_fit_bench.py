@@ -1,0 +1,44 @@
+"""The fit bench's scoring (weavecap.fit_bench) on fabrics with known errors; no rendering."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from weavecap import fit_bench, params
+
+FIXTURES = Path(__file__).resolve().parents[1] / "fixtures" / "params"
+
+
+def test_compare_scores_errors_against_what_the_photo_determines():
+    truth = params.load(FIXTURES / "twill_2_1.json")
+    fit = truth.replace({"specular.roughness": truth.specular.roughness + 0.1, "plies": truth.plies + 2,
+                         "pattern": np.roll(truth.pattern, 1, axis=1)})
+    determined = {"specular.roughness": {"standard_error": 0.04, "determined": True},
+                  "specular.ior": {"standard_error": 0.3, "determined": False},
+                  "warp.radius": {"standard_error": None, "determined": False}}
+    row = fit_bench.compare(fit, truth, determined)
+    assert row["pattern_exact"] and not row["plies_ok"] and row["fibers_ok"]
+    assert row["relative_error"]["specular.roughness"] == pytest.approx(0.1)
+    assert row["relative_error"]["specular.ior"] == 0.0
+    assert row["determined"] == ["specular.roughness"]
+    assert row["within_2se"] == pytest.approx(0.5)  # roughness 0.1 > 2 × 0.04; ior 0 ≤ 0.6
+    assert fit_bench.compare(None, truth) == {"fitted": False, "pattern_exact": False}
+
+
+def test_summary_and_table_pool_the_determined_errors():
+    truth = params.load(FIXTURES / "plain.json")
+    rows = []
+    for k, (off, se) in enumerate([(0.02, 0.03), (0.3, 0.2), (0.06, 0.04)]):
+        fit = truth.replace({"specular.roughness": truth.specular.roughness + off})
+        det = {"specular.roughness": {"standard_error": se, "determined": se <= 0.05}}
+        rows.append({"preset": "draft", "seconds": 10.0 + k, "psnr_db": 30.0 + k, **fit_bench.compare(fit, truth, det)})
+    rows.append({"preset": "draft", "seconds": 5.0, "psnr_db": None, **fit_bench.compare(None, truth)})
+    (summary,) = fit_bench.summary(rows)
+    assert summary["fitted"] == 3 and summary["photos"] == 4 and summary["pattern_exact"] == 0.75
+    assert summary["median_error_determined"] == pytest.approx(0.04)  # 0.02 and 0.06; 0.3 not determined
+    assert summary["determined_per_photo"] == 1 and summary["median_psnr_db"] == 31.0
+    table = fit_bench.table([summary])
+    assert "| draft | 3/4 |" in table and "4.0%" in table

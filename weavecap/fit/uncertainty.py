@@ -1,0 +1,106 @@
+"""How well one photo determines each continuous parameter of the fitted fabric.
+
+The fit minimises the MSE between a render of one repeat, as photographed, and the photo's
+median repeat (§6). Near that minimum a nonlinear least-squares fit has the covariance
+
+    Σ = s² A (JᵀJ)⁻¹,
+
+where J (values × parameters) is the render's Jacobian with respect to the parameters, s² the
+residual's variance per value and A its *correlation area* — how many neighbouring values
+(pixels and channels) each independent piece of residual spreads over: blur, JPEG blocks and
+model mismatch make the residual smooth, and counting every pixel as independent would make
+the errors look √A times smaller than they are. A parameter that barely moves the render (the
+ior, Table 1's narrow ranges) or whose effect another can take over (a body colour against the
+transmission of a back-lit pale yarn) gets a large diagonal entry of (JᵀJ)⁻¹: the photo does
+not determine it, however well the fit matches the photo.
+
+J is taken by forward finite differences of :data:`STEP` of each parameter's range (colours
+per channel), on renders made with the same samples, so the differences hold no sampling
+noise. A parameter is reported as *determined* when its standard error is at most
+:data:`DETERMINED_SE` of its range (two standard errors inside the 10% of issue 5's accuracy
+goal). Units: every error is a fraction of the parameter's Table 1 range.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..model.render import as_photographed, render_numpy, white_level
+from ..model.scene import View, build_scene
+from ..params import CONTINUOUS_KEYS, FIT_RANGES, Fabric
+
+STEP = 0.02  # finite-difference step, fraction of each range
+DETERMINED_SE = 0.05  # standard error (fraction of the range) up to which the photo determines a value
+
+
+def correlation_area(residual: np.ndarray, radius: int) -> float:
+    """How many values of ``residual`` (H, W, 3) one independent error spreads over: the sum of
+    its normalised autocorrelation over spatial lags within ``radius`` px (the repeat wraps
+    around), times the share the three channels have in common (1 when they are unrelated, 3
+    when they move together). At least 1."""
+    r = residual - residual.mean(axis=(0, 1))
+    spectra = np.fft.fft2(r, axes=(0, 1))
+    cross = np.einsum("hwc,hwd->cd", r, r)  # channel covariance (unnormalised)
+    channels = float(cross.sum() / max(np.trace(cross), 1e-30))
+    auto = np.real(np.fft.ifft2(np.sum(np.abs(spectra) ** 2, axis=2)))  # summed over channels
+    if auto[0, 0] <= 0:
+        return 1.0
+    auto /= auto[0, 0]
+    lags = np.fft.fftfreq(r.shape[0]) * r.shape[0], np.fft.fftfreq(r.shape[1]) * r.shape[1]
+    near = (np.abs(lags[0])[:, None] <= radius) & (np.abs(lags[1])[None, :] <= radius)
+    return max(1.0, float(auto[near].sum()) * max(1.0, channels))
+
+
+def standard_errors(fabric: Fabric, target: np.ndarray, *, blur_px: float, light: str = "both",
+                    spp: int = 4) -> dict[str, float]:
+    """Standard error of every continuous parameter of ``fabric`` fitted to ``target``.
+
+    Parameters
+    ----------
+    fabric : the fitted fabric; target : (n_e*c, n_a*c, 3) the photo's median repeat (linear RGB)
+    blur_px : σ of the blur the renders are compared with (canvas px); light : the rig; spp :
+        samples per pixel (the fit's)
+
+    Returns
+    -------
+    dict dotted key → standard error as a fraction of the key's Table 1 range (a colour: its
+    worst channel); ``inf`` where the photo does not constrain it at all. One render per scalar
+    value (28 for a fabric without textures).
+    """
+    target = np.asarray(target, dtype=np.float64)
+    h, w = target.shape[:2]
+    fs = build_scene(fabric, View(tiles=(1, 1), size=max(h, w), spp=spp), light=light)
+    white = white_level(target)
+
+    def shown() -> np.ndarray:
+        return as_photographed(render_numpy(fs, spp=spp), blur_px, white).astype(np.float64)
+
+    base = shown()
+    columns, owners = [], []
+    for key in CONTINUOUS_KEYS:
+        if key in fs.textures:
+            continue
+        lo, hi = FIT_RANGES[key]
+        value = np.atleast_1d(np.asarray(fabric.get(key), dtype=np.float64))
+        for i in range(value.size):
+            unit = (value[i] - lo) / (hi - lo)
+            step = STEP if unit + STEP <= 1.0 else -STEP
+            moved = value.copy()
+            moved[i] = lo + (unit + step) * (hi - lo)
+            fs.set(key, tuple(moved) if value.size == 3 else float(moved[0]))
+            columns.append(((shown() - base) / step).ravel())
+            owners.append(key)
+        fs.set(key, tuple(value) if value.size == 3 else float(value[0]))
+    jac = np.stack(columns, axis=1)
+    residual = base - target
+    c = h // fabric.shape[0]
+    noise = float(np.mean(residual ** 2)) * correlation_area(residual, max(1, c // 2))
+    info = jac.T @ jac
+    seen = np.diag(info) > 1e-12 * max(float(np.max(np.diag(info))), 1e-30)
+    variance = np.full(len(owners), np.inf)
+    if seen.any():
+        variance[seen] = noise * np.diag(np.linalg.pinv(info[np.ix_(seen, seen)], rcond=1e-10, hermitian=True))
+    out: dict[str, float] = {}
+    for key, var in zip(owners, variance):
+        out[key] = max(out.get(key, 0.0), float(np.sqrt(max(var, 0.0))))
+    return out
