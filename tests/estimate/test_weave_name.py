@@ -20,7 +20,13 @@ def test_fixture_weaves_are_named(name, expected):
 @pytest.mark.parametrize("pattern, expected", [
     (twill(2, 2, step=-1), "twill 2/2 Z"), (twill(1, 3), "twill 1/3 S"), (1 - satin(8, 3), "satin 8/3 warp-faced"),
     (np.kron(np.array([[1, 0], [0, 1]]), np.ones((2, 1), int)), "rib 2 (wefts doubled)"),
-    (np.ones((2, 3), int), "custom 1×1 (yarns that never interlace)")])
+    (np.ones((2, 3), int), "custom 1×1 (yarns that never interlace)"),
+    # a satin's derivative: two raised cells a row, each row moved 3 (the W108 photo's fit)
+    (np.array([[0, 1, 1, 0, 0], [1, 0, 0, 0, 1], [0, 0, 1, 1, 0], [1, 1, 0, 0, 0], [0, 0, 0, 1, 1]]),
+     "satin 5/3 extended 2/3"),
+    (np.array([np.roll([1, 1, 1, 0, 0, 0, 0, 0], 3 * i) for i in range(8)]), "satin 8/3 extended 3/5"),
+    (np.array([np.roll([1, 1, 0, 0, 0], i) for i in range(5)]), "twill 2/3 S"),
+    (np.array([np.roll([1, 0, 1, 0, 0], 2 * i) for i in range(5)]), "custom 5×5")])
 def test_more_weaves(pattern, expected):
     assert weave_name(pattern) == expected
 

@@ -6,7 +6,9 @@ A pattern (wefts, warps), 1 = weft over warp, is named after its minimum repeat:
 - ``twill a/b`` (each weft passes over ``a`` warps and under ``b``; a > b is weft-faced) with
   its direction: ``Z`` when the diagonal rises to the right ("/"), ``S`` when it falls ("\\");
 - ``satin n/s``: n × n, one interlacing per yarn, moving ``s`` warps per weft (s ≠ ±1,
-  coprime with n), ``weft-faced`` or ``warp-faced``;
+  coprime with n), ``weft-faced`` or ``warp-faced``; ``satin n/s extended a/b``: a satin's
+  derivative whose rows hold one run of ``a`` raised cells (``b`` lowered, both > 1), each row
+  the last moved by ``s`` (the extended or reinforced satins of weaving handbooks);
 - ``basket k/k`` (k × k blocks of plain weave) and ``rib`` (plain weave with yarns doubled in
   one direction);
 - ``custom n×m`` otherwise.
@@ -80,6 +82,20 @@ def _satin(p: np.ndarray) -> str | None:
     return None
 
 
+def _extended_satin(p: np.ndarray) -> str | None:
+    n = p.shape[0]
+    if n < 5 or p.shape != (n, n):
+        return None
+    row = p[0]
+    ones = int(row.sum())
+    if not 1 < ones < n - 1 or int(np.sum(row != np.roll(row, 1))) != 2:
+        return None
+    for step in range(2, n - 1):
+        if gcd(step, n) == 1 and all(np.array_equal(p[i], np.roll(row, step * i)) for i in range(n)):
+            return f"satin {n}/{step} extended {ones}/{n - ones}"
+    return None
+
+
 def _blocks(p: np.ndarray) -> str | None:
     plain = np.array([[1, 0], [0, 1]], dtype=np.uint8)
     n_e, n_a = p.shape
@@ -104,7 +120,7 @@ def weave_name(pattern: np.ndarray) -> str:
         return "plain"
     if p.shape == (1, 1) or min(p.shape) == 1:
         return f"custom {p.shape[0]}×{p.shape[1]} (yarns that never interlace)"
-    for namer in (_twill, _satin, _blocks):
+    for namer in (_twill, _satin, _extended_satin, _blocks):
         # try every cyclic shift of the rows: a twill or satin is recognised from any start
         for i in range(p.shape[0]):
             name = namer(np.roll(p, i, axis=0))
