@@ -54,18 +54,26 @@ def equal_up_to_shift(a: np.ndarray, b: np.ndarray) -> bool:
     return a.shape == b.shape and shift_agreement(a, b)[0] == 1.0
 
 
-def _twill(p: np.ndarray) -> str | None:
+def _moving_run(p: np.ndarray) -> str | None:
+    """A twill, or an extended satin: a square ``p`` whose first row is one run of ones and one
+    of zeros (cyclically) and whose every row moves the last by the same step s
+    (``p[i] == roll(p[0], s i)``): s = ±1 is a twill; s coprime with n otherwise, on at least
+    5 × 5 with runs of at least 2, an extended satin (one raised cell a row is a plain satin,
+    :func:`_satin`)."""
     n = p.shape[0]
     if n < 3 or p.shape != (n, n):
         return None
     row = p[0]
     ones = int(row.sum())
-    # one run of ones and one of zeros, cyclically
     if not 0 < ones < n or int(np.sum(row != np.roll(row, 1))) != 2:
         return None
-    for step, direction in ((1, "S"), (-1, "Z")):
-        if all(np.array_equal(p[i], np.roll(row, step * i)) for i in range(n)):
+    steps = [s for s in range(n) if all(np.array_equal(p[i], np.roll(row, s * i)) for i in range(n))]
+    for step, direction in ((1, "S"), (n - 1, "Z")):
+        if step in steps:
             return f"twill {ones}/{n - ones} {direction}"
+    satin_steps = [s for s in steps if 1 < s < n - 1 and gcd(s, n) == 1]
+    if n >= 5 and 1 < ones < n - 1 and satin_steps:
+        return f"satin {n}/{satin_steps[0]} extended {ones}/{n - ones}"
     return None
 
 
@@ -79,20 +87,6 @@ def _satin(p: np.ndarray) -> str | None:
             step = int((cols[1] - cols[0]) % n)
             if step not in (1, n - 1) and gcd(step, n) == 1 and np.all((np.diff(cols) % n) == step):
                 return f"satin {n}/{step} {face}"
-    return None
-
-
-def _extended_satin(p: np.ndarray) -> str | None:
-    n = p.shape[0]
-    if n < 5 or p.shape != (n, n):
-        return None
-    row = p[0]
-    ones = int(row.sum())
-    if not 1 < ones < n - 1 or int(np.sum(row != np.roll(row, 1))) != 2:
-        return None
-    for step in range(2, n - 1):
-        if gcd(step, n) == 1 and all(np.array_equal(p[i], np.roll(row, step * i)) for i in range(n)):
-            return f"satin {n}/{step} extended {ones}/{n - ones}"
     return None
 
 
@@ -120,7 +114,7 @@ def weave_name(pattern: np.ndarray) -> str:
         return "plain"
     if p.shape == (1, 1) or min(p.shape) == 1:
         return f"custom {p.shape[0]}×{p.shape[1]} (yarns that never interlace)"
-    for namer in (_twill, _satin, _extended_satin, _blocks):
+    for namer in (_moving_run, _satin, _blocks):
         # try every cyclic shift of the rows: a twill or satin is recognised from any start
         for i in range(p.shape[0]):
             name = namer(np.roll(p, i, axis=0))

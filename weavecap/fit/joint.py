@@ -8,8 +8,9 @@ steps, simulated annealing proposes a discrete move — change the number of pli
 temperature that starts at T₀ = 100 and decays by 0.98 per proposal (§6.2). The pattern is
 re-annealed at T = 0 with §5.1's batched sweeps (one complement render, then batches of the
 most promising flips) at fixed points of the fit, once the continuous values have settled —
-a flip judged against badly fitted colours is a coin toss. The radii, by default, follow a
-greedy pattern search (:class:`_RadiusSearch`).
+a flip judged against badly fitted colours is a coin toss; at the same points every number of
+plies is tried (:func:`scan_plies`). The radii, by default, follow a greedy pattern search
+(:class:`_RadiusSearch`).
 
 Adam works on each parameter scaled to its range ([0, 1]), so one learning rate fits all; the
 rate follows a cosine from ``learning_rate`` down to a tenth of it over the iterations.
@@ -322,6 +323,6 @@ def fit(target: np.ndarray, start: Fabric, *, config: FitConfig = FitConfig(), l
                             "renders": sum(s["renders"] for s in sweeps)}
     if scans:
         moves["plies_scan"] = {"scans": len(scans), "changed": sum(s["changed"] for s in scans),
-                           "renders": sum(s["renders"] for s in scans)}
+                               "renders": sum(s["renders"] for s in scans)}
     return FitResult(fabric=best_fabric, loss=best_loss, history=history, iterations=step,
                      seconds=time.perf_counter() - t0, stopped=stopped, moves=moves)
