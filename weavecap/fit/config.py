@@ -13,7 +13,9 @@ class FitConfig:
     ----------
     iterations : most gradient steps (the loop stops earlier on convergence or budget)
     cell_px : pixels per cell of the rendered repeat (the photo's repeat is resampled to the
-        same cell canvas, :mod:`weavecap.estimate.cells`)
+        same cell canvas, :mod:`weavecap.estimate.cells`). At 16, a 4-spp render aliases the
+        fibre grooves the photo averages: the fit bench's median PSNR at normal was 30.5 dB at
+        16 px (14.9 s a photo), 31.3 dB at 24 (26.3 s)
     max_side_px : the rendered repeat's longer side is at most this (large repeats get
         smaller cells)
     spp : samples per pixel of the fitting renders: the lights are exact at any count, but
@@ -47,8 +49,8 @@ class FitConfig:
     """
 
     iterations: int = 120
-    cell_px: int = 16
-    max_side_px: int = 160
+    cell_px: int = 24
+    max_side_px: int = 256
     spp: int = 4
     learning_rate: float = 0.04
     barrier_lambda: float = 0.01
@@ -73,7 +75,7 @@ class FitConfig:
 PRESETS: dict[str, FitConfig] = {
     "draft": FitConfig(iterations=50, cell_px=10, converge_window=15, registration_rounds=2),
     "normal": FitConfig(),
-    "high": FitConfig(iterations=300, cell_px=24, max_side_px=256, spp=8, converge_window=40, converge_tol=5e-4),
+    "high": FitConfig(iterations=300, spp=8, converge_window=40, converge_tol=5e-4),
 }
 
 

@@ -157,8 +157,8 @@ def scan_plies(fs: FabricScene, measure: Callable[[], float]) -> dict:
     arrive, and meanwhile the continuous values adapt to the wrong count. With the other values
     right, the loss over plies has one clear minimum at the truth (bench photos: within 1).
     Fibres are not scanned: a yarn's ~30 fibre grooves are finer than a pixel at the fit's
-    16 px a cell, and the loss over fibres is flat but for a spike at the exact count (measured
-    on forward-model renders at 16 and 32 px a cell) — nothing a scan could home in on.
+    16–24 px a cell, and the loss over fibres is flat but for a spike at the exact count
+    (measured on forward-model renders at 16 and 32 px a cell) — nothing a scan could home in on.
     """
     lo, hi = FIT_RANGES["plies"]
     current = int(round(float(np.asarray(fs.values["plies"]).ravel()[0])))
