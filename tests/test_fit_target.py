@@ -111,3 +111,32 @@ def test_white_level_clips_a_render_as_a_photo_does():
     assert np.array_equal(as_photographed(image, 0.0, np.inf), image)
     loss, grads, _ = mse_and_gradients(fs, photo, ["specular.reflection", "warp.body_reflection"], blur_px=0.7)
     assert np.isfinite(loss) and all(np.all(np.isfinite(g)) for g in grads.values())
+
+
+@pytest.mark.parametrize("extra, calls", [(0, 3), (3, 5)])
+def test_rounds_go_on_while_they_still_lower_the_loss(monkeypatch, extra, calls):
+    """Three planned rounds; then more (up to ``extra_rounds``) while the last one lowered the
+    loss by more than 5%: losses 1, .5, .4, then .3 (−25%: go on) and .29 (−3%: stop)."""
+    from types import SimpleNamespace
+
+    from weavecap import pipeline
+    from weavecap.fit.joint import FitResult
+
+    losses = iter([1.0, 0.5, 0.4, 0.3, 0.29, 0.28, 0.27])
+    made = []
+
+    def fake_round(prepared, cells, fabric, options, config, **kw):
+        loss = next(losses)
+        made.append(loss)
+        result = FitResult(fabric=fabric, loss=loss, history=[loss], iterations=1, seconds=0.0, stopped="iterations")
+        return pipeline.RegisteredFit(result=result, target=None, cells=cells, blur_px=0.0, notes={"cell_shift": [0, 0]})
+
+    monkeypatch.setattr(pipeline, "_fit_round", fake_round)
+    config = pipeline.PRESETS["normal"].with_(registration_rounds=3, extra_rounds=extra, extra_round_gain=0.05)
+    monkeypatch.setitem(pipeline.PRESETS, "normal", config)
+    prepared = SimpleNamespace(regularized=SimpleNamespace(box=(0.0, 0.0, 10.0, 10.0)))
+    cells = CellGrid(rows=np.arange(3.0), cols=np.arange(3.0))
+    fabric = params.load(FIXTURES / "plain.json")
+    out = pipeline.fit_registered(prepared, cells, fabric, pipeline.CaptureOptions(), c=8, fixed=frozenset(),
+                                  explore_patterns=False)
+    assert len(made) == calls and out.result.loss == min(made)

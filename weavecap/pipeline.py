@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -357,7 +358,7 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
     def budget(done: int) -> float | None:
         if options.budget_s is None:
             return None
-        return max(0.0, options.budget_s - (time.perf_counter() - t0)) / (runs - done)
+        return max(0.0, options.budget_s - (time.perf_counter() - t0)) / max(1, runs - done)
 
     def spent() -> bool:  # with --budget, no further start or round begins once it is used up
         return options.budget_s is not None and time.perf_counter() - t0 >= options.budget_s
@@ -374,21 +375,24 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
     if explore_patterns:
         notes["start"] = {"chosen": chosen, **{name: round(r.result.loss, 6) for name, r in firsts.items()}}
     history = list(best.result.history)
-    for k in range(1, rounds):
+    k, gain = 1, math.inf
+    while k < rounds or (k < rounds + config.extra_rounds and gain > config.extra_round_gain):
         if spent():
             break
         last = _fit_round(prepared, best.cells, best.result.fabric, options, per_round, c=c, fixed=fixed,
                           seed=options.seed + k, budget_s=budget(len(starts) + k - 1))
         notes["cell_shift"].append(last.notes["cell_shift"])
         history += last.result.history
+        gain = (best.result.loss - last.result.loss) / max(best.result.loss, 1e-12)
         if last.result.loss < best.result.loss:  # every round scores against the same photo
             best = last
+        k += 1
     if explore_patterns and not spent() and not is_named_weave(best.result.fabric.pattern):
         named = best_named_weave(prepared, best.cells, best.result.fabric, options, c=c,
                                  tolerance=config.named_weave_tolerance)
         if named is not None:
             last = _fit_round(prepared, best.cells, best.result.fabric.replace({"pattern": named}), options, per_round,
-                              c=c, fixed=fixed | {"pattern"}, seed=options.seed + rounds, budget_s=budget(runs - 1))
+                              c=c, fixed=fixed | {"pattern"}, seed=options.seed + k, budget_s=budget(runs - 1))
             history += last.result.history
             taken = last.result.loss <= best.result.loss * (1.0 + config.named_weave_tolerance)
             notes["named_weave"] = {"pattern": named.astype(int).tolist(), "loss": round(last.result.loss, 6),
