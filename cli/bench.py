@@ -25,7 +25,7 @@ def bench(quick, do_render, do_fit, out):
     Fit: synthetic photos with known truth (plain, twills, satins 5 and 8, basket, random
     patterns up to 8x8; about 1 megapixel, turned, mild perspective, noise, JPEG) are captured
     end to end at each preset and compared with the truth. Writes OUT/results.json and
-    OUT/speed_vs_error.png. The full fit bench takes about 12 minutes on a 2-core machine.
+    OUT/speed_vs_error.png. The full fit bench takes about 15 minutes on a 2-core machine.
 
     \b
     Examples:
