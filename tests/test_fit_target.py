@@ -140,3 +140,31 @@ def test_rounds_go_on_while_they_still_lower_the_loss(monkeypatch, extra, calls)
     out = pipeline.fit_registered(prepared, cells, fabric, pipeline.CaptureOptions(), c=8, fixed=frozenset(),
                                   explore_patterns=False)
     assert len(made) == calls and out.result.loss == min(made)
+
+
+def test_no_round_begins_once_the_budget_is_spent(monkeypatch):
+    """Each round takes 10 s of a 25 s budget: the third begins at 20 s, no fourth at 30 s,
+    although every round still lowers the loss by half."""
+    from types import SimpleNamespace
+
+    from weavecap import pipeline
+    from weavecap.fit.joint import FitResult
+
+    clock = [0.0]
+    monkeypatch.setattr(pipeline, "time", SimpleNamespace(perf_counter=lambda: clock[0]))
+    made = []
+
+    def fake_round(prepared, cells, fabric, options, config, *, budget_s, **kw):
+        clock[0] += 10.0
+        loss = 0.5 ** len(made)
+        made.append(budget_s)
+        result = FitResult(fabric=fabric, loss=loss, history=[loss], iterations=1, seconds=10.0, stopped="budget")
+        return pipeline.RegisteredFit(result=result, target=None, cells=cells, blur_px=0.0, notes={"cell_shift": [0, 0]})
+
+    monkeypatch.setattr(pipeline, "_fit_round", fake_round)
+    prepared = SimpleNamespace(regularized=SimpleNamespace(box=(0.0, 0.0, 10.0, 10.0)))
+    cells = CellGrid(rows=np.arange(3.0), cols=np.arange(3.0))
+    options = pipeline.CaptureOptions(budget_s=25.0)
+    pipeline.fit_registered(prepared, cells, params.load(FIXTURES / "plain.json"), options, c=8, fixed=frozenset(),
+                            explore_patterns=False)
+    assert len(made) == 3 and all(b is not None and b <= 25.0 for b in made)
