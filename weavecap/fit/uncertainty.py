@@ -14,6 +14,13 @@ ior, Table 1's narrow ranges) or whose effect another can take over (a body colo
 transmission of a back-lit pale yarn) gets a large diagonal entry of (JᵀJ)⁻¹: the photo does
 not determine it, however well the fit matches the photo.
 
+Some directions no photo can see. The body lobes weigh R^B by ``specular.coefficient`` m_r
+and S^B by 1 − m_r (§3.3), so moving m_r and rescaling both colours to keep m_r R^B and
+(1 − m_r) S^B leaves every render unchanged (0.6 → 0.5 with the colours rescaled: renders equal
+to 6e-8): the colours and m_r are determined only together. So the covariance is a posterior
+with each value's Table 1 range as a uniform prior (variance 1/12 of the range²): along such a
+direction the error stays at the prior's instead of vanishing from a pseudo-inverse.
+
 J is taken by forward finite differences of :data:`STEP` of each parameter's range (colours
 per channel), on renders made with the same samples, so the differences hold no sampling
 noise. A parameter is reported as *determined* when its standard error is at most
@@ -31,6 +38,7 @@ from ..params import CONTINUOUS_KEYS, FIT_RANGES, Fabric
 
 STEP = 0.02  # finite-difference step, fraction of each range
 DETERMINED_SE = 0.05  # standard error (fraction of the range) up to which the photo determines a value
+PRIOR_PRECISION = 12.0  # 1 / variance of a value uniform over its range (range units)
 
 
 def correlation_area(residual: np.ndarray, radius: int) -> float:
@@ -64,8 +72,8 @@ def standard_errors(fabric: Fabric, target: np.ndarray, *, blur_px: float, light
     Returns
     -------
     dict dotted key → standard error as a fraction of the key's Table 1 range (a colour: its
-    worst channel); ``inf`` where the photo does not constrain it at all. One render per scalar
-    value (28 for a fabric without textures).
+    worst channel); at most the prior's 0.29 (1/√12), reached where the photo says nothing of
+    the value. One render per scalar value (32 for a fabric without textures).
     """
     target = np.asarray(target, dtype=np.float64)
     h, w = target.shape[:2]
@@ -95,11 +103,11 @@ def standard_errors(fabric: Fabric, target: np.ndarray, *, blur_px: float, light
     residual = base - target
     c = h // fabric.shape[0]
     noise = float(np.mean(residual ** 2)) * correlation_area(residual, max(1, c // 2))
-    info = jac.T @ jac
-    seen = np.diag(info) > 1e-12 * max(float(np.max(np.diag(info))), 1e-30)
-    variance = np.full(len(owners), np.inf)
-    if seen.any():
-        variance[seen] = noise * np.diag(np.linalg.pinv(info[np.ix_(seen, seen)], rcond=1e-10, hermitian=True))
+    # posterior covariance with Table 1's uniform range as the prior (variance 1/12 in range
+    # units): a direction the photo does not constrain keeps the prior's spread instead of
+    # being dropped, as a pseudo-inverse would
+    precision = jac.T @ jac / max(noise, 1e-20) + PRIOR_PRECISION * np.eye(len(owners))
+    variance = np.diag(np.linalg.inv(precision))
     out: dict[str, float] = {}
     for key, var in zip(owners, variance):
         out[key] = max(out.get(key, 0.0), float(np.sqrt(max(var, 0.0))))
