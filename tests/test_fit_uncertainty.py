@@ -48,7 +48,7 @@ def test_errors_scale_with_the_noise_and_name_what_the_photo_cannot_show(twill):
         assert low[key] <= DETERMINED_SE, (key, low[key])
     for key in ("specular.ior_exit", "specular.attenuation"):
         assert low[key] > DETERMINED_SE, (key, low[key])
-    assert all(0 <= v <= 1 / np.sqrt(12) + 1e-9 for v in low.values())
+    assert all(v >= 0 and not np.isnan(v) for v in low.values())
 
 
 def test_no_photo_separates_the_body_colours_from_their_mix(twill):

@@ -208,7 +208,7 @@ def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), 
         "pattern_confidence": round(confidence, 4), "mse": result.loss, "stopped": result.stopped,
         "seconds": round(result.seconds, 3), "cell_px": c, "spp": config.spp, "moves": result.moves,
         "pattern_fixed": options.pattern is not None,
-        "parameters": {key: {"standard_error": round(se, 4),
+        "parameters": {key: {"standard_error": round(se, 4) if np.isfinite(se) else None,
                              "determined": bool(se <= DETERMINED_SE)} for key, se in errors.items()},
     }
     report["modelled"] = {
