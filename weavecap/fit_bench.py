@@ -72,7 +72,9 @@ def make_photos(folder: Path, *, quick: bool, seed: int = 2026) -> list[BenchPho
 
 def compare(fit: Fabric | None, truth: Fabric, determined: dict | None = None) -> dict:
     """Errors of a fitted fabric against the truth (None: the photo was not fitted).
-    ``determined``: the report's ``fit.parameters`` (which values the photo determines)."""
+    ``determined``: the report's ``fit.parameters`` (which values the photo determines);
+    ``within_2se`` is the share of values with a finite standard error whose error is within
+    two of it."""
     from .estimate.weave_name import equal_up_to_shift
 
     if fit is None:
