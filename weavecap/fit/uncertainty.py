@@ -22,7 +22,7 @@ eigenvectors: an unseen direction is left out (as a pseudo-inverse would), and e
 moves along it is reported as undetermined — a pseudo-inverse alone would report such values
 with the error of the seen directions only. (Two alternatives were tried on the bench: a
 uniform prior over each range shrank the errors of weakly seen values below their true errors
-— 56% of the true errors within 2 SE, against 87% here; a floor on the eigenvalues spilled the
+— on the quick bench 56% of the true errors within 2 SE, against 87–89% without it; a floor on the eigenvalues spilled the
 unseen direction's variance onto every value with the smallest loading on it.) Such values
 get an infinite error (``null`` in report.json).
 
