@@ -20,11 +20,11 @@ and S^B by 1 − m_r (§3.3), so moving m_r and rescaling both colours to keep m
 to 6e-8): the colours and m_r are determined only together. (JᵀJ)⁻¹ is therefore taken by its
 eigenvectors: an unseen direction is left out (as a pseudo-inverse would), and every value that
 moves along it is reported as undetermined — a pseudo-inverse alone would report such values
-with the error of the seen directions only. (Two alternatives were tried on the bench: a
-uniform prior over each range shrank the errors of weakly seen values below their true errors
-— on the quick bench 56% of the true errors within 2 SE, against 87–89% without it; a floor on the eigenvalues spilled the
-unseen direction's variance onto every value with the smallest loading on it.) Such values
-get an infinite error (``null`` in report.json).
+with the error of the seen directions only. Such values get an infinite error (``null`` in
+report.json). (Two alternatives were tried on the quick bench: a uniform prior over each range
+shrank the errors of weakly seen values below their true errors — 56% of the true errors
+within 2 SE, against 87–89% without it; a floor on the eigenvalues spilled the unseen
+direction's variance onto every value with the smallest loading on it.)
 
 J is taken by forward finite differences of :data:`STEP` of each parameter's range (colours
 per channel), on renders made with the same samples, so the differences hold no sampling
