@@ -277,11 +277,11 @@ def _fit_round(prepared, cells, fabric: wparams.Fabric, options: CaptureOptions,
 
 
 def is_named_weave(pattern: np.ndarray) -> bool:
-    """The pattern is, up to a cyclic shift, one of the named weaves of its shape."""
-    from .estimate.sampling import regular_weaves
-    from .estimate.weave_name import equal_up_to_shift
+    """The pattern has a name other than custom (:func:`weavecap.estimate.weave_name.weave_name`:
+    at any phase, tiled, or an extended satin) — the same rule the report names it by."""
+    from .estimate.weave_name import weave_name
 
-    return any(equal_up_to_shift(pattern, p) for p in regular_weaves(pattern.shape))
+    return not weave_name(pattern).startswith("custom")
 
 
 def best_named_weave(prepared, cells, start: wparams.Fabric, options: CaptureOptions, *, c: int,

@@ -36,3 +36,6 @@ def test_a_named_weave_is_recognised_at_any_phase_and_a_custom_one_is_not():
     custom[0, 1] ^= 1  # one cell off a satin
     assert not is_named_weave(custom)
     assert not is_named_weave(np.array([[0, 1, 1], [1, 0, 0]], dtype=np.uint8))
+    # what the report names is named here too: a tiled plain weave, an extended satin
+    assert is_named_weave(np.tile(np.array([[1, 0], [0, 1]], dtype=np.uint8), (2, 2)))
+    assert is_named_weave(np.array([np.roll([1, 1, 0, 0, 0], 3 * i) for i in range(5)], dtype=np.uint8))
