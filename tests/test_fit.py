@@ -132,3 +132,52 @@ def test_the_fit_scans_plies_only_when_they_are_free():
     held = fit(target, truth.replace({"plies": 1}), config=config, fixed=frozenset({"pattern", "plies"}))
     assert free.moves["plies_scan"]["scans"] == 1 and "plies_scan" not in held.moves
     assert held.fabric.plies == 1
+
+
+@pytest.mark.parametrize("fixture", ["twill_2_1.json", "custom_4x6.json"])
+def test_colour_solve_recovers_known_body_colours_from_black(fixture):
+    from weavecap.fit.joint import BODY_COLOUR_KEYS, solve_colours
+    from weavecap.model.render import blurred_mse
+
+    truth = params.load(FIXTURES / fixture).replace({"specular.coefficient": 0.5})
+    c = 16
+    target = canvas_of(truth, c)
+    black = {k: (0.0, 0.0, 0.0) for k in BODY_COLOUR_KEYS}
+    fs = build_scene(truth.replace(black), View(tiles=(1, 1), size=c * max(truth.shape), spp=8))
+    before = blurred_mse(render_numpy(fs), target)
+    out = solve_colours(fs, target, lambda: blurred_mse(render_numpy(fs), target), spp=8, blur_px=0.0)
+    assert out == {"renders": 6, "changed": 1}
+    assert blurred_mse(render_numpy(fs), target) < 1e-3 * before
+    # the products the render sees, m_r R^B and (1 - m_r) S^B, are the truth's (m_r is the truth's here)
+    for key in BODY_COLOUR_KEYS:
+        assert np.abs(np.subtract(fs.to_fabric().get(key), truth.get(key))).max() < 0.03, key
+
+
+def test_colour_solve_keeps_the_colours_when_it_cannot_do_better():
+    from weavecap.fit.joint import BODY_COLOUR_KEYS, solve_colours
+    from weavecap.model.render import blurred_mse
+
+    truth = params.load(FIXTURES / "plain.json")
+    c = 16
+    fs = build_scene(truth, View(tiles=(1, 1), size=c * max(truth.shape), spp=8))
+    for target in (np.zeros_like(canvas_of(truth, c)), np.ones_like(canvas_of(truth, c))):
+        start = fs.to_fabric()
+        loss = blurred_mse(render_numpy(fs), target)
+        out = solve_colours(fs, target, lambda: blurred_mse(render_numpy(fs), target), spp=8, blur_px=1.0)
+        after = fs.to_fabric()
+        assert blurred_mse(render_numpy(fs), target) <= loss and np.isfinite(loss)
+        if not out["changed"]:  # an all-white target is all clipped: nothing to solve from
+            for key in BODY_COLOUR_KEYS:
+                assert after.get(key) == pytest.approx(start.get(key)), key
+
+
+def test_the_fit_solves_colours_that_gradient_steps_left_black():
+    truth = params.load(FIXTURES / "twill_2_1.json")
+    config = PRESETS["draft"].with_(iterations=4, colour_solves=(0.0,), pattern_moves=False, plies_scans=())
+    target = canvas_of(truth, cell_px_for(config, truth.shape))
+    black = truth.replace({k: (0.0, 0.0, 0.0) for k in ("warp.body_reflection", "weft.body_reflection")})
+    solved = fit(target, black, config=config, fixed=frozenset({"pattern"}))
+    plain = fit(target, black, config=config.with_(colour_solves=()), fixed=frozenset({"pattern"}))
+    assert solved.moves["colour_solve"] == {"solves": 1, "changed": 1, "renders": 6}
+    assert "colour_solve" not in plain.moves
+    assert solved.loss < 0.5 * plain.loss
