@@ -173,7 +173,7 @@ def test_colour_solve_keeps_the_colours_when_it_cannot_do_better():
 
 def test_the_fit_solves_colours_that_gradient_steps_left_black():
     truth = params.load(FIXTURES / "twill_2_1.json")
-    config = PRESETS["draft"].with_(iterations=4, colour_solves=(0.0,), pattern_moves=False, plies_scans=())
+    config = PRESETS["draft"].with_(iterations=4, colour_solves=(0.25,), pattern_moves=False, plies_scans=())
     target = canvas_of(truth, cell_px_for(config, truth.shape))
     black = truth.replace({k: (0.0, 0.0, 0.0) for k in ("warp.body_reflection", "weft.body_reflection")})
     solved = fit(target, black, config=config, fixed=frozenset({"pattern"}))
@@ -181,3 +181,27 @@ def test_the_fit_solves_colours_that_gradient_steps_left_black():
     assert solved.moves["colour_solve"] == {"solves": 1, "changed": 1, "renders": 6}
     assert "colour_solve" not in plain.moves
     assert solved.loss < 0.5 * plain.loss
+
+
+def test_colour_solve_chooses_the_split_that_keeps_colours_inside_their_range():
+    from weavecap.fit.joint import BODY_COLOUR_KEYS, solve_colours
+    from weavecap.model.render import blurred_mse
+
+    # a bright body: m_r R^B reaches 0.285, out of reach from a start at m_r 0.2 with R^B ≤ 1
+    truth = params.load(FIXTURES / "twill_2_1.json").replace({
+        "specular.coefficient": 0.3, "warp.body_reflection": (0.95, 0.6, 0.3), "weft.body_reflection": (0.9, 0.9, 0.9),
+        "warp.body_subsurface": (0.2, 0.2, 0.2), "weft.body_subsurface": (0.1, 0.3, 0.1)})
+    c = 16
+    target = canvas_of(truth, c)
+    start = truth.replace({**{k: (0.0, 0.0, 0.0) for k in BODY_COLOUR_KEYS}, "specular.coefficient": 0.2})
+    fs = build_scene(start, View(tiles=(1, 1), size=c * max(truth.shape), spp=8))
+    out = solve_colours(fs, target, lambda: blurred_mse(render_numpy(fs), target), spp=8, blur_px=0.0,
+                        split="specular.coefficient")
+    got = fs.to_fabric()
+    assert out["changed"] == 1 and blurred_mse(render_numpy(fs), target) < 1e-5
+    m_r = got.get("specular.coefficient")
+    for key in BODY_COLOUR_KEYS:  # the products the render sees are the truth's ...
+        w, w_true = (m_r, 0.3) if key.endswith("reflection") else (1 - m_r, 0.7)
+        np.testing.assert_allclose(np.multiply(got.get(key), w), np.multiply(truth.get(key), w_true), atol=0.01)
+        # ... and no colour is left at 1, where the clamp would stop the next gradient steps
+        assert max(got.get(key)) < 0.99, key
