@@ -289,7 +289,7 @@ def best_named_weave(prepared, cells, start: wparams.Fabric, options: CaptureOpt
     """The named weave (:func:`weavecap.estimate.sampling.regular_weaves`) of ``start``'s repeat
     shape that explains the photo best with ``start``'s other parameters, if it explains it
     better than ``start``'s own pattern does (or at most ``tolerance`` worse, as a fraction of
-    the MSE); else None.
+    the MSE; ``math.inf``: the best named weave however it scores); else None.
 
     §5.1's annealing flips one cell at a time, and on a large repeat (a satin of 8) it can
     settle in a pattern no single flip improves. Each named weave is scored as the fit would
@@ -341,7 +341,9 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
     best, when it explains it better than the pre-estimate (:func:`best_named_weave`). At the
     end, a fitted pattern that is no named weave is tried against the best named weave of its
     shape, fitted with that pattern fixed; within ``config.named_weave_tolerance`` of the loss,
-    the named weave is kept. Returns the best round, with ``cells`` in the rectified photo's
+    the named weave is kept. The candidate is always fitted: scored with the custom fit's
+    values, the real satin W108's named weave looked worse than its custom 5×5 and was not
+    tried; fitted, its loss was 0.0056 against 0.0133 (18.7 → 22.5 dB). Returns the best round, with ``cells`` in the rectified photo's
     pixels.
     """
     config = options.config
@@ -388,8 +390,7 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
             best = last
         k += 1
     if explore_patterns and not spent() and not is_named_weave(best.result.fabric.pattern):
-        named = best_named_weave(prepared, best.cells, best.result.fabric, options, c=c,
-                                 tolerance=config.named_weave_tolerance)
+        named = best_named_weave(prepared, best.cells, best.result.fabric, options, c=c, tolerance=math.inf)
         if named is not None:
             last = _fit_round(prepared, best.cells, best.result.fabric.replace({"pattern": named}), options, per_round,
                               c=c, fixed=fixed | {"pattern"}, seed=options.seed + k, budget_s=budget(runs - 1))
