@@ -168,3 +168,38 @@ def test_no_round_begins_once_the_budget_is_spent(monkeypatch):
     pipeline.fit_registered(prepared, cells, params.load(FIXTURES / "plain.json"), options, c=8, fixed=frozenset(),
                             explore_patterns=False)
     assert len(made) == 3 and all(b is not None and b <= 25.0 for b in made)
+
+
+def test_the_end_stage_fits_the_best_named_weave_even_when_it_looked_worse_unfitted(monkeypatch):
+    """A custom 4×4 fit (loss 0.0133) whose best named weave, a 2/2 twill, scores 10% worse
+    with the custom fit's values (the real satin W108's case) but, fitted, leaves 0.0056: the
+    twill is fitted and kept."""
+    from types import SimpleNamespace
+
+    from weavecap import pipeline
+    from weavecap.estimate.sampling import twill
+    from weavecap.fit.joint import FitResult
+
+    named = twill(2, 2)
+    asked = []
+
+    def fake_best_named_weave(prepared, cells, start, options, *, c, tolerance=0.0):
+        asked.append(tolerance)
+        return named if 1.10 < 1.0 + tolerance else None  # unfitted: 10% worse than its own pattern
+
+    def fake_round(prepared, cells, fabric, options, config, **kw):
+        loss = 0.0056 if np.array_equal(fabric.pattern, named) else 0.0133
+        result = FitResult(fabric=fabric, loss=loss, history=[loss], iterations=1, seconds=0.0, stopped="iterations")
+        return pipeline.RegisteredFit(result=result, target=None, cells=cells, blur_px=0.0, notes={"cell_shift": [0, 0]})
+
+    monkeypatch.setattr(pipeline, "best_named_weave", fake_best_named_weave)
+    monkeypatch.setattr(pipeline, "_fit_round", fake_round)
+    custom = np.array([[0, 1, 1, 1], [0, 0, 0, 1], [1, 1, 0, 0], [0, 1, 1, 0]], dtype=np.uint8)
+    assert not pipeline.is_named_weave(custom)
+    start = params.load(FIXTURES / "plain.json").replace({"pattern": custom})
+    prepared = SimpleNamespace(regularized=SimpleNamespace(box=(0.0, 0.0, 10.0, 10.0)))
+    cells = CellGrid(rows=np.arange(5.0), cols=np.arange(5.0))
+    out = pipeline.fit_registered(prepared, cells, start, pipeline.CaptureOptions(), c=8, fixed=frozenset(),
+                                  explore_patterns=True)
+    assert asked[-1] == np.inf
+    assert np.array_equal(out.result.fabric.pattern, named) and out.notes["named_weave"]["taken"]
