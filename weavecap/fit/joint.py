@@ -11,8 +11,8 @@ most promising flips) at fixed points of the fit, once the continuous values hav
 a flip judged against badly fitted colours is a coin toss; at the same points every number of
 plies is tried (:func:`scan_plies`). The body colours, in which the render is linear, are
 also solved in closed form with the rest fixed, once late in each round (:func:`solve_colours`):
-gradient steps alone can leave them stuck at black. The radii, by
-default, follow a greedy pattern search (:class:`_RadiusSearch`).
+gradient steps alone can leave them stuck at black. The radii, by default, follow a greedy
+pattern search (:class:`_RadiusSearch`).
 
 Adam works on each parameter scaled to its range ([0, 1]), so one learning rate fits all; the
 rate follows a cosine from ``learning_rate`` down to a tenth of it over the iterations.
