@@ -343,7 +343,8 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
     shape, fitted with that pattern fixed; within ``config.named_weave_tolerance`` of the loss,
     the named weave is kept. The candidate is always fitted: scored with the custom fit's
     values, the real satin W108's named weave looked worse than its custom 5×5 and was not
-    tried; fitted, its loss was 0.0056 against 0.0133 (18.7 → 22.5 dB). Returns the best round, with ``cells`` in the rectified photo's
+    tried; fitted, its loss was 0.0056 against 0.0133 (18.7 → 22.5 dB). Returns the best
+    round, with ``cells`` in the rectified photo's
     pixels.
     """
     config = options.config

@@ -223,14 +223,16 @@ def solve_colours(fs: FabricScene, target: np.ndarray, measure: Callable[[], flo
         fs.set(k, (0.0, 0.0, 0.0))
     target = np.asarray(target, dtype=np.float64)
     seen = target < CLIPPED_SHARE * white_level(target)
-    # the unknowns are the products the render sees: m_r R^B and (1 - m_r) S^B (or, with the
-    # split fixed, the colours themselves)
-    m_lo, m_hi = FIT_RANGES[split] if split else (0.0, 1.0)
-    m_r = float(before_split) if split else 1.0
-    weight = np.array([m_r if k.endswith("reflection") else 1.0 - m_r for k in keys]) if split else np.ones(len(keys))
-    hi = np.array([m_hi if k.endswith("reflection") else 1.0 - m_lo for k in keys]) if split \
-        else np.array([FIT_RANGES[k][1] for k in keys])
-    lo = np.zeros(len(keys)) if split else np.array([FIT_RANGES[k][0] for k in keys])
+    # the unknowns: the colours (each colour = product / weight), or with a split the products
+    # the render sees, m_r R^B and (1 - m_r) S^B, each up to what Table 1's m_r allows
+    reflection = np.array([k.endswith("reflection") for k in keys])
+    if split:
+        m_lo, m_hi = FIT_RANGES[split]
+        weight = np.where(reflection, before_split, 1.0 - before_split)
+        lo, hi = np.zeros(len(keys)), np.where(reflection, m_hi, 1.0 - m_lo)
+    else:
+        weight = np.ones(len(keys))
+        lo, hi = (np.array(bounds) for bounds in zip(*(FIT_RANGES[k] for k in keys)))
     products = np.zeros((len(keys), 3))
     for ch in range(3):
         m = seen[..., ch].ravel() & np.isfinite(target[..., ch].ravel())
@@ -239,7 +241,6 @@ def solve_colours(fs: FabricScene, target: np.ndarray, measure: Callable[[], flo
             products[:, ch] = lsq_linear(a, target[..., ch].ravel()[m] - dark[..., ch].ravel()[m],
                                          bounds=(lo, hi)).x
     if split:  # the split that keeps every colour within [0, 1], as far from the ends as it can
-        reflection = np.array([k.endswith("reflection") for k in keys])
         p_max, q_max = products[reflection].max(initial=0.0), products[~reflection].max(initial=0.0)
         low, high = max(m_lo, p_max), min(m_hi, 1.0 - q_max)
         m_r = 0.5 * (low + high) if low <= high else float(np.clip(p_max / max(p_max + q_max, 1e-12), m_lo, m_hi))

@@ -78,7 +78,8 @@ def standard_errors(fabric: Fabric, target: np.ndarray, *, blur_px: float, light
     Returns
     -------
     dict dotted key → standard error as a fraction of the key's Table 1 range (a colour: its
-    worst channel); ``inf`` for a value that moves along a direction no render sees. One render per scalar value (32 for a fabric without textures).
+    worst channel); ``inf`` for a value that moves along a direction no render sees. One
+    render per scalar value (32 for a fabric without textures).
     """
     target = np.asarray(target, dtype=np.float64)
     h, w = target.shape[:2]
