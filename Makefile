@@ -1,6 +1,6 @@
 # Set-up and entry points for a fresh machine. See README.md.
 #   make demo   install, then fit the bundled fixture photo (the main job) and re-render the result
-#   make test   install, then run the test suite (what .ci/run calls)
+#   make test   install, run the test suite, then check the built wheel (what .ci/run calls)
 PYTHON ?= python3
 VENV   ?= .venv
 BIN     = $(VENV)/bin
@@ -25,6 +25,8 @@ demo: install
 
 test: install
 	$(BIN)/python -m pytest -q -p no:cacheprovider
+	# the wheel as users install it: built, installed into a fresh venv, run outside the tree
+	bash scripts/check_wheel.sh
 
 man: install
 	$(BIN)/python -m weavecap.cli.manpages man

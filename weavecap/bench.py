@@ -25,7 +25,9 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-FIXTURE = Path(__file__).resolve().parents[1] / "fixtures" / "params" / "twill_2_1.json"
+from .fixtures import path as fixture_path
+
+FIXTURE = fixture_path("params", "twill_2_1.json")
 
 
 @dataclass(frozen=True)
