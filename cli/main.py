@@ -2,8 +2,10 @@
 
 Commands are imported only when invoked, so ``weavecap --help`` starts fast and does not load
 Mitsuba. Errors a user can fix (:class:`weavecap.errors.WeavecapError`) become a one-paragraph
-message and their exit status (2 input, 3 rejected photo); anything else exits 1 with a short
-message (set ``WEAVECAP_DEBUG=1`` for the traceback).
+message and their exit status from :data:`weavecap.errors.OUTCOMES` (2 input, 3 rejected
+photo); anything else — a command module that fails to import included — exits 1 with a short
+message (set ``WEAVECAP_DEBUG=1`` for the traceback). Only a name missing from
+:data:`COMMANDS` is "No such command" (exit 2).
 """
 
 from __future__ import annotations
@@ -15,7 +17,7 @@ import sys
 import click
 
 from weavecap import __version__
-from weavecap.errors import WeavecapError
+from weavecap.errors import WeavecapError, outcome
 
 #: command name → "module:function" (modules under weavecap.cli)
 COMMANDS = {
@@ -51,21 +53,35 @@ class WeavecapGroup(click.Group):
     def get_command(self, ctx, name):
         target = COMMANDS.get(name)
         if target is None:
-            return None
+            return None  # click: "No such command" (exit 2)
         module, attr = target.split(":")
-        try:
-            return getattr(importlib.import_module(module), attr)
-        except ModuleNotFoundError:
-            return None
+        return getattr(importlib.import_module(module), attr)  # a broken import is a bug: exit 1
+
+    def format_commands(self, ctx, formatter):
+        """The command list of ``--help`` (as click's); a command whose module fails to import
+        is listed with its error instead of breaking the help of every other command."""
+        names = self.list_commands(ctx)
+        limit = formatter.width - 6 - max(map(len, names))
+        rows = []
+        for name in names:
+            try:
+                command = self.get_command(ctx, name)
+            except Exception as exc:  # noqa: BLE001 - shown, not hidden: this command is broken
+                rows.append((name, f"(cannot be loaded: {type(exc).__name__}: {exc})"))
+                continue
+            if not command.hidden:
+                rows.append((name, command.get_short_help_str(limit)))
+        with formatter.section("Commands"):
+            formatter.write_dl(rows)
 
     def invoke(self, ctx):
         try:
             return super().invoke(ctx)
         except WeavecapError as exc:
             raise UserError(exc) from exc
-        except KeyboardInterrupt:
+        except KeyboardInterrupt as exc:
             click.echo(INTERRUPTED, err=True)
-            raise click.exceptions.Exit(130) from None
+            raise click.exceptions.Exit(outcome(exc).exit) from None
 
 
 @click.group(cls=WeavecapGroup, context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
@@ -91,15 +107,15 @@ def main(argv: list[str] | None = None) -> None:
         cli.main(args=argv, prog_name="weavecap", standalone_mode=True)
     except SystemExit:
         raise
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:
         click.echo(INTERRUPTED, err=True)
-        sys.exit(130)
+        sys.exit(outcome(exc).exit)
     except Exception as exc:  # noqa: BLE001 - the last line of defence: no tracebacks for users
         if os.environ.get("WEAVECAP_DEBUG"):
             raise
         click.echo(f"weavecap: unexpected error: {type(exc).__name__}: {exc}\n"
                    "  (set WEAVECAP_DEBUG=1 to see the traceback, and please report it)", err=True)
-        sys.exit(1)
+        sys.exit(outcome(exc).exit)
 
 
 if __name__ == "__main__":

@@ -116,7 +116,7 @@ def test_a_bad_pattern_file_names_the_fix(tmp_path):
 
 def test_an_interrupted_batch_resumes_where_it_stopped(batch, tmp_path, monkeypatch):
     """Ctrl-C during the third photo; the next run does only what is left, listing each once."""
-    import weavecap.cli.fit as fit_cli
+    from weavecap.pipeline import FitJob
 
     photos, out, _ = batch
     work = tmp_path / "out"
@@ -125,19 +125,19 @@ def test_an_interrupted_batch_resumes_where_it_stopped(batch, tmp_path, monkeypa
     for p in bad:
         p.write_bytes(b"not an image")
     todo = [photos[0], *bad]
-    real = fit_cli._run_one
+    real = FitJob.run
 
-    def interrupted(photo, *args):
+    def interrupted(self, photo, *args):
         if photo.endswith("c_corrupt.png"):
             raise KeyboardInterrupt
-        return real(photo, *args)
+        return real(self, photo, *args)
 
-    monkeypatch.setattr(fit_cli, "_run_one", interrupted)
+    monkeypatch.setattr(FitJob, "run", interrupted)
     result = run(*todo, "-o", work, "--quality", "draft")
     assert result.exit_code == 130 and "interrupted" in result.output
     assert [json.loads(x)["photo"] for x in (work / "summary.jsonl").read_text().splitlines()] == \
         [str(p) for p in todo[:2]]
-    monkeypatch.setattr(fit_cli, "_run_one", real)
+    monkeypatch.setattr(FitJob, "run", real)
     result = run(*todo, "-o", work, "--quality", "draft")
     assert result.exit_code == 3
     assert [json.loads(x)["photo"] for x in (work / "summary.jsonl").read_text().splitlines()] == \

@@ -11,6 +11,7 @@ import pytest
 from weavecap import params
 from weavecap.estimate.cells import CellGrid
 from weavecap.estimate.forward import RepeatRenderer
+from weavecap.fit.config import PRESETS
 from weavecap.fit.target import correlation_shift, lattice_drift, mean_repeat, register_cells
 from weavecap.model.render import as_photographed, blurred_mse, mse_and_gradients, white_level
 from weavecap.model.scene import View, build_scene
@@ -120,6 +121,7 @@ def test_rounds_go_on_while_they_still_lower_the_loss(monkeypatch, extra, calls)
     from types import SimpleNamespace
 
     from weavecap import pipeline
+    from weavecap.fit import rounds
     from weavecap.fit.joint import FitResult
 
     losses = iter([1.0, 0.5, 0.4, 0.3, 0.29, 0.28, 0.27])
@@ -129,15 +131,15 @@ def test_rounds_go_on_while_they_still_lower_the_loss(monkeypatch, extra, calls)
         loss = next(losses)
         made.append(loss)
         result = FitResult(fabric=fabric, loss=loss, history=[loss], iterations=1, seconds=0.0, stopped="iterations")
-        return pipeline.RegisteredFit(result=result, target=None, cells=cells, blur_px=0.0, notes={"cell_shift": [0, 0]})
+        return rounds.RegisteredFit(result=result, target=None, cells=cells, blur_px=0.0, notes={"cell_shift": [0, 0]})
 
-    monkeypatch.setattr(pipeline, "_fit_round", fake_round)
-    config = pipeline.PRESETS["normal"].with_(registration_rounds=3, extra_rounds=extra, extra_round_gain=0.05)
-    monkeypatch.setitem(pipeline.PRESETS, "normal", config)
+    monkeypatch.setattr(rounds, "_fit_round", fake_round)
+    config = PRESETS["normal"].with_(registration_rounds=3, extra_rounds=extra, extra_round_gain=0.05)
+    monkeypatch.setitem(PRESETS, "normal", config)
     prepared = SimpleNamespace(regularized=SimpleNamespace(box=(0.0, 0.0, 10.0, 10.0)))
     cells = CellGrid(rows=np.arange(3.0), cols=np.arange(3.0))
     fabric = params.load(FIXTURES / "plain.json")
-    out = pipeline.fit_registered(prepared, cells, fabric, pipeline.CaptureOptions(), c=8, fixed=frozenset(),
+    out = rounds.fit_registered(prepared, cells, fabric, pipeline.CaptureOptions(), c=8, fixed=frozenset(),
                                   explore_patterns=False)
     assert len(made) == calls and out.result.loss == min(made)
 
@@ -148,10 +150,11 @@ def test_no_round_begins_once_the_budget_is_spent(monkeypatch):
     from types import SimpleNamespace
 
     from weavecap import pipeline
+    from weavecap.fit import rounds
     from weavecap.fit.joint import FitResult
 
     clock = [0.0]
-    monkeypatch.setattr(pipeline, "time", SimpleNamespace(perf_counter=lambda: clock[0]))
+    monkeypatch.setattr(rounds, "time", SimpleNamespace(perf_counter=lambda: clock[0]))
     made = []
 
     def fake_round(prepared, cells, fabric, options, config, *, budget_s, **kw):
@@ -159,13 +162,13 @@ def test_no_round_begins_once_the_budget_is_spent(monkeypatch):
         loss = 0.5 ** len(made)
         made.append(budget_s)
         result = FitResult(fabric=fabric, loss=loss, history=[loss], iterations=1, seconds=10.0, stopped="budget")
-        return pipeline.RegisteredFit(result=result, target=None, cells=cells, blur_px=0.0, notes={"cell_shift": [0, 0]})
+        return rounds.RegisteredFit(result=result, target=None, cells=cells, blur_px=0.0, notes={"cell_shift": [0, 0]})
 
-    monkeypatch.setattr(pipeline, "_fit_round", fake_round)
+    monkeypatch.setattr(rounds, "_fit_round", fake_round)
     prepared = SimpleNamespace(regularized=SimpleNamespace(box=(0.0, 0.0, 10.0, 10.0)))
     cells = CellGrid(rows=np.arange(3.0), cols=np.arange(3.0))
     options = pipeline.CaptureOptions(budget_s=25.0)
-    pipeline.fit_registered(prepared, cells, params.load(FIXTURES / "plain.json"), options, c=8, fixed=frozenset(),
+    rounds.fit_registered(prepared, cells, params.load(FIXTURES / "plain.json"), options, c=8, fixed=frozenset(),
                             explore_patterns=False)
     assert len(made) == 3 and all(b is not None and b <= 25.0 for b in made)
 
@@ -177,6 +180,7 @@ def test_the_end_stage_fits_the_best_named_weave_even_when_it_looked_worse_unfit
     from types import SimpleNamespace
 
     from weavecap import pipeline
+    from weavecap.fit import rounds
     from weavecap.estimate.sampling import twill
     from weavecap.fit.joint import FitResult
 
@@ -190,16 +194,16 @@ def test_the_end_stage_fits_the_best_named_weave_even_when_it_looked_worse_unfit
     def fake_round(prepared, cells, fabric, options, config, **kw):
         loss = 0.0056 if np.array_equal(fabric.pattern, named) else 0.0133
         result = FitResult(fabric=fabric, loss=loss, history=[loss], iterations=1, seconds=0.0, stopped="iterations")
-        return pipeline.RegisteredFit(result=result, target=None, cells=cells, blur_px=0.0, notes={"cell_shift": [0, 0]})
+        return rounds.RegisteredFit(result=result, target=None, cells=cells, blur_px=0.0, notes={"cell_shift": [0, 0]})
 
-    monkeypatch.setattr(pipeline, "best_named_weave", fake_best_named_weave)
-    monkeypatch.setattr(pipeline, "_fit_round", fake_round)
+    monkeypatch.setattr(rounds, "best_named_weave", fake_best_named_weave)
+    monkeypatch.setattr(rounds, "_fit_round", fake_round)
     custom = np.array([[0, 1, 1, 1], [0, 0, 0, 1], [1, 1, 0, 0], [0, 1, 1, 0]], dtype=np.uint8)
-    assert not pipeline.is_named_weave(custom)
+    assert not rounds.is_named_weave(custom)
     start = params.load(FIXTURES / "plain.json").replace({"pattern": custom})
     prepared = SimpleNamespace(regularized=SimpleNamespace(box=(0.0, 0.0, 10.0, 10.0)))
     cells = CellGrid(rows=np.arange(5.0), cols=np.arange(5.0))
-    out = pipeline.fit_registered(prepared, cells, start, pipeline.CaptureOptions(), c=8, fixed=frozenset(),
+    out = rounds.fit_registered(prepared, cells, start, pipeline.CaptureOptions(), c=8, fixed=frozenset(),
                                   explore_patterns=True)
     assert asked[-1] == np.inf
     assert np.array_equal(out.result.fabric.pattern, named) and out.notes["named_weave"]["taken"]

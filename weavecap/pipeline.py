@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import math
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -22,7 +21,7 @@ import numpy as np
 from . import params as wparams
 from .errors import PhotoError
 from .fit.config import PRESETS, FitConfig, cell_px_for
-from .fit.target import align_cells, dual, mean_repeat, photo_blur, register_cells, repeat_cells, shifted
+from .fit.target import align_cells, repeat_cells
 from .io import atomic_write_text
 
 REPORT_FORMAT = "weavecap.report/1"
@@ -71,25 +70,42 @@ class Capture:
         return self.report["status"]
 
 
+@dataclass(frozen=True)
+class FitJob:
+    """``weavecap fit``'s work on one photo, as a :class:`weavecap.batch.Job`: capture it and
+    write its outputs (:func:`write_capture`)."""
+
+    options: CaptureOptions = CaptureOptions()
+    key = "photo"
+    outputs = OUTPUT_FILES
+    record = "report.json"
+
+    def run(self, source: str, folder: str) -> dict:
+        cap = capture(source, self.options)
+        write_capture(cap, Path(folder))
+        return cap.report
+
+    def failure_record(self, source: str, status: str, reason: str, seconds: float) -> dict:
+        from .photo import file_sha256
+
+        report = base_report(source, self.options)
+        try:  # identify the photo, so that a resumed batch knows this failure is its own
+            report["input"]["sha256"] = file_sha256(source)
+        except OSError:
+            pass
+        report.update(status=status, reason=reason, timings_s={"total": round(seconds, 3)})
+        return report
+
+    def summary(self, record: dict) -> dict:
+        fit = record.get("fit", {})
+        return {"weave": record.get("weave"), "psnr_db": fit.get("psnr_db"),
+                "pattern_confidence": fit.get("pattern_confidence"), "yarns": record["grid"]["yarns"]}
+
+
 def psnr(a: np.ndarray, b: np.ndarray) -> float:
     """PSNR in dB of two linear images clipped to [0, 1] (peak 1)."""
     mse = float(np.mean((np.clip(a, 0, 1).astype(np.float64) - np.clip(b, 0, 1)) ** 2))
     return float(10 * np.log10(1.0 / max(mse, 1e-12)))
-
-
-def _pattern_confidence(fs, rendered: np.ndarray, target: np.ndarray, spp: int, blur_px: float) -> float:
-    """Fraction of cells whose fitted state (``rendered``, blurred) explains the photo better
-    than its opposite (one more render, of the complement pattern)."""
-    from .estimate.cells import cell_errors
-    from .model.render import as_photographed, render_numpy, white_level
-
-    pattern = fs.fabric.pattern.copy()
-    now = cell_errors(rendered, target, pattern.shape)
-    fs.set("pattern", 1 - pattern)
-    flipped = cell_errors(as_photographed(render_numpy(fs, spp=spp), blur_px, white_level(target)), target,
-                          pattern.shape)
-    fs.set("pattern", pattern)
-    return float(np.mean(flipped > now))
 
 
 def base_report(photo_path: str | Path, options: CaptureOptions) -> dict:
@@ -116,6 +132,8 @@ def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), 
     from .estimate.cells import cell_canvas
     from .estimate.preestimate import pre_estimate
     from .estimate.weave_name import weave_name
+    from .fit.confidence import pattern_confidence
+    from .fit.rounds import fit_registered
     from .fit.uncertainty import DETERMINED_SE, standard_errors
     from .model.render import as_photographed, render_numpy, white_level
     from .model.scene import View, build_scene
@@ -189,7 +207,7 @@ def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), 
     t = time.perf_counter()
     fs = build_scene(result.fabric, View(tiles=(1, 1), size=max(target.shape[:2]), spp=config.spp), light=options.light)
     rendered = as_photographed(render_numpy(fs), blur_px, white_level(target))
-    confidence = _pattern_confidence(fs, rendered, target, config.spp, blur_px)
+    confidence = pattern_confidence(fs, rendered, target, config.spp, blur_px)
     photo_canvas = cell_canvas(prepared.rectification.image, photo_cells, c)
     noise = fit_noise(photo_canvas - rendered, pitch_px=float(c), seed=options.seed)
     fabric = dataclasses.replace(result.fabric, noise=noise) if noise["gaussians"] else result.fabric
@@ -226,185 +244,6 @@ def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), 
     images = {"compare.png": np.concatenate([target, rendered, error], axis=1),
               "rectified.png": prepared.rectification.image, "grid.png": prepared.grid_overlay()}
     return Capture(report=report, fabric=fabric, images=images, history=result.history)
-
-
-@dataclass
-class RegisteredFit:
-    """One round of :func:`fit_registered`: a fit, and the registration it was fitted on.
-
-    Attributes
-    ----------
-    result : the round's :class:`weavecap.fit.joint.FitResult` (after :func:`fit_registered`,
-        its history holds every round's steps)
-    target : (n_e*c, n_a*c, 3) the photo's median repeat on the registration
-    cells : that registration, a CellGrid in the regularized box's pixels
-    blur_px : the blur the renders were compared with
-    notes : what the report records (cell shifts per round, the dual choice)
-    """
-
-    result: object
-    target: np.ndarray
-    cells: object
-    blur_px: float
-    notes: dict = field(default_factory=dict)
-
-
-def _registered_target(prepared, cells, model: np.ndarray, c: int):
-    """The cells registered on ``model`` (a render of one repeat as photographed, ``c`` px per
-    cell) and the photo's median repeat there: (cells in the regularized box's pixels, shift in
-    cells, target (n_e*c, n_a*c, 3))."""
-    cells, shift = register_cells(prepared.regularized.image, cells, model, c)
-    target = mean_repeat(prepared.rectification.image, shifted(cells, prepared.regularized.box), c, model=model)
-    return cells, shift, target
-
-
-def _fit_round(prepared, cells, fabric: wparams.Fabric, options: CaptureOptions, config: FitConfig, *, c: int,
-               fixed: frozenset[str], seed: int, budget_s: float | None) -> RegisteredFit:
-    """Register ``cells`` on a render of ``fabric``, extract the photo's median repeat there,
-    measure the blur, and fit ``fabric`` to it. One render serves all three."""
-    from .estimate.forward import BLUR_CELLS, RepeatRenderer
-    from .fit.joint import fit
-    from .model.render import as_photographed, white_level
-
-    image = RepeatRenderer(fabric, cell_px=c, light=options.light, spp=config.spp, blur_cells=0.0).render()
-    model = as_photographed(image, BLUR_CELLS * c, white_level(prepared.rectification.image))
-    cells, shift, target = _registered_target(prepared, cells, model, c)
-    blur_px, _ = photo_blur(image, target, c)
-    result = fit(target, fabric, config=config, light=options.light, seed=seed, budget_s=budget_s, fixed=fixed,
-                 blur_px=blur_px)
-    return RegisteredFit(result=result, target=target, cells=cells, blur_px=blur_px,
-                         notes={"cell_shift": [round(v, 3) for v in shift]})
-
-
-def is_named_weave(pattern: np.ndarray) -> bool:
-    """The pattern has a name other than custom (:func:`weavecap.estimate.weave_name.weave_name`:
-    at any phase, tiled, or an extended satin) — the same rule the report names it by."""
-    from .estimate.weave_name import weave_name
-
-    return not weave_name(pattern).startswith("custom")
-
-
-def best_named_weave(prepared, cells, start: wparams.Fabric, options: CaptureOptions, *, c: int,
-                     tolerance: float = 0.0) -> np.ndarray | None:
-    """The named weave (:func:`weavecap.estimate.sampling.regular_weaves`) of ``start``'s repeat
-    shape that explains the photo best with ``start``'s other parameters, if it explains it
-    better than ``start``'s own pattern does (or at most ``tolerance`` worse, as a fraction of
-    the MSE; ``math.inf``: the best named weave however it scores); else None.
-
-    §5.1's annealing flips one cell at a time, and on a large repeat (a satin of 8) it can
-    settle in a pattern no single flip improves. Each named weave is scored as the fit would
-    see it: the cells registered on its render, the photo's median repeat there, and the
-    MSE between the two (one render each). The pattern's phase does not matter: the
-    registration moves the cells to it.
-    """
-    from .estimate.forward import RepeatRenderer
-    from .estimate.sampling import regular_weaves
-    from .estimate.weave_name import equal_up_to_shift
-    from .model.render import white_level
-
-    weaves = [p for p in regular_weaves(start.shape) if not equal_up_to_shift(p, start.pattern)]
-    if not weaves:
-        return None
-    rr = RepeatRenderer(start, cell_px=c, light=options.light, white=white_level(prepared.rectification.image))
-
-    def score(pattern: np.ndarray) -> float:
-        rr.set_pattern(pattern)
-        model = rr.render()
-        _, _, target = _registered_target(prepared, cells, model, c)
-        return float(np.mean(np.square(model - target)))
-
-    own = score(start.pattern)
-    scores = [score(p) for p in weaves]
-    k = int(np.argmin(scores))
-    return weaves[k] if scores[k] < own * (1.0 + tolerance) else None
-
-
-def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptions, *, c: int,
-                   fixed: frozenset[str], explore_patterns: bool) -> RegisteredFit:
-    """The joint fit (§6), alternating with the registration of the photo's cells.
-
-    The target is the photo's median repeat on cells registered against a render of the
-    current fabric (:func:`register_cells`); a render of the pre-estimate can be far enough off
-    (wrong radii, colours) to put the cells a fifth of a yarn astray, and then even the true
-    parameters score poorly (a synthetic random 2×3 turned 12°: 15.4 dB registered on the
-    pre-estimate, 33.7 dB on the truth). So the fit runs in ``config.registration_rounds``
-    rounds, the iterations and any budget split evenly; before each, the cells are registered
-    on the fabric fitted so far, the target re-extracted and the blur re-measured. Each round
-    warm-starts from the best fabric so far, and the round with the lowest loss is kept.
-
-    With ``explore_patterns`` (the pattern is free and the start is the pre-estimate) the first
-    round is run from the pre-estimate and from its
-    :func:`dual` (every cell flipped, warp and weft exchanged), and the lower loss goes on: the
-    two differ only in which way the yarns run in each cell, which a pre-estimate judged on
-    cell colours gets wrong when the colours hardly show (a pale, back-lit twill: its
-    complement). A third start is the named weave of the same repeat that explains the photo
-    best, when it explains it better than the pre-estimate (:func:`best_named_weave`). At the
-    end, a fitted pattern that is no named weave is tried against the best named weave of its
-    shape, fitted with that pattern fixed; within ``config.named_weave_tolerance`` of the loss,
-    the named weave is kept. The candidate is always fitted: scored with the custom fit's
-    values, the real satin W108's named weave looked worse than its custom 5×5 and was not
-    tried; fitted, its loss was 0.0056 against 0.0133 (18.7 → 22.5 dB). Returns the best
-    round, with ``cells`` in the rectified photo's
-    pixels.
-    """
-    config = options.config
-    rounds = max(1, config.registration_rounds)
-    per_round = config.with_(iterations=max(1, config.iterations // rounds))
-    t0 = time.perf_counter()
-    starts = {"pre_estimate": start, "dual": dual(start)} if explore_patterns else {"pre_estimate": start}
-    if explore_patterns:
-        named = best_named_weave(prepared, cells, start, options, c=c)
-        if named is not None:
-            starts["named_weave"] = start.replace({"pattern": named})
-    runs = rounds + len(starts)  # and one more round for a named weave
-
-    def budget(done: int) -> float | None:
-        if options.budget_s is None:
-            return None
-        return max(0.0, options.budget_s - (time.perf_counter() - t0)) / max(1, runs - done)
-
-    def spent() -> bool:  # with --budget, no further start or round begins once it is used up
-        return options.budget_s is not None and time.perf_counter() - t0 >= options.budget_s
-
-    firsts: dict[str, RegisteredFit] = {}
-    for k, (name, fabric) in enumerate(starts.items()):
-        if firsts and spent():
-            break
-        firsts[name] = _fit_round(prepared, cells, fabric, options, per_round, c=c, fixed=fixed, seed=options.seed,
-                                  budget_s=budget(k))
-    chosen = min(firsts, key=lambda name: firsts[name].result.loss)
-    best = firsts[chosen]
-    notes = {"cell_shift": [best.notes["cell_shift"]]}
-    if explore_patterns:
-        notes["start"] = {"chosen": chosen, **{name: round(r.result.loss, 6) for name, r in firsts.items()}}
-    history = list(best.result.history)
-    k, gain = 1, math.inf
-    while k < rounds or (k < rounds + config.extra_rounds and gain > config.extra_round_gain):
-        if spent():
-            break
-        last = _fit_round(prepared, best.cells, best.result.fabric, options, per_round, c=c, fixed=fixed,
-                          seed=options.seed + k, budget_s=budget(len(starts) + k - 1))
-        notes["cell_shift"].append(last.notes["cell_shift"])
-        history += last.result.history
-        gain = (best.result.loss - last.result.loss) / max(best.result.loss, 1e-12)
-        if last.result.loss < best.result.loss:  # every round scores against the same photo
-            best = last
-        k += 1
-    if explore_patterns and not spent() and not is_named_weave(best.result.fabric.pattern):
-        named = best_named_weave(prepared, best.cells, best.result.fabric, options, c=c, tolerance=math.inf)
-        if named is not None:
-            last = _fit_round(prepared, best.cells, best.result.fabric.replace({"pattern": named}), options, per_round,
-                              c=c, fixed=fixed | {"pattern"}, seed=options.seed + k, budget_s=budget(runs - 1))
-            history += last.result.history
-            taken = last.result.loss <= best.result.loss * (1.0 + config.named_weave_tolerance)
-            notes["named_weave"] = {"pattern": named.astype(int).tolist(), "loss": round(last.result.loss, 6),
-                                    "fitted_loss": round(best.result.loss, 6), "taken": taken}
-            if taken:
-                best = last
-    result = dataclasses.replace(best.result, history=history, iterations=len(history),
-                                 seconds=time.perf_counter() - t0)
-    return RegisteredFit(result=result, target=best.target, cells=shifted(best.cells, prepared.regularized.box),
-                         blur_px=best.blur_px, notes=notes)
 
 
 def loss_plot(history: list[float], *, size: tuple[int, int] = (240, 400)) -> np.ndarray:

@@ -28,7 +28,7 @@ def test_the_library_holds_the_satins_and_twills_by_name():
 
 
 def test_a_named_weave_is_recognised_at_any_phase_and_a_custom_one_is_not():
-    from weavecap.pipeline import is_named_weave
+    from weavecap.fit.rounds import is_named_weave
 
     assert is_named_weave(np.roll(satin(8, 3), (2, 5), axis=(0, 1)))
     assert is_named_weave(1 - twill(2, 3, step=-1))

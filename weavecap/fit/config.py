@@ -44,7 +44,7 @@ class FitConfig:
     converge_window, converge_tol : stop when the best loss improved by less than this
         fraction over the last ``converge_window`` steps
     registration_rounds : the capture fits in this many rounds, re-registering the photo's
-        cells on the fabric fitted so far before each (:func:`weavecap.pipeline.fit_registered`);
+        cells on the fabric fitted so far before each (:func:`weavecap.fit.rounds.fit_registered`);
         the iterations are split evenly between them
     extra_rounds, extra_round_gain : up to this many more rounds while the last one still
         lowered the loss by more than this fraction (a satin 5 of the bench: 22.6 dB after

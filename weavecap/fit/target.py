@@ -6,7 +6,7 @@ that works rests on the lattice: a fifth of a cell off, or a drift of a pixel ac
 photo, and even the true parameters score poorly. So the cells are registered on a render of
 the fabric (:func:`register_cells`, one FFT), and the median repeat follows any residual drift
 of the lattice across the photo (:func:`mean_repeat` with a ``model``). The capture repeats
-both between rounds of the fit (:func:`weavecap.pipeline.fit_registered`).
+both between rounds of the fit (:func:`weavecap.fit.rounds.fit_registered`).
 
 Shapes: images are (H, W, 3) linear RGB; a canvas of one repeat of an (n_e, n_a) pattern at
 ``c`` px per cell is (n_e*c, n_a*c, 3) (:mod:`weavecap.estimate.cells`).

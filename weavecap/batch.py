@@ -1,0 +1,313 @@
+"""Batches: many inputs, one output folder each, one ``summary.jsonl`` line per input.
+
+DESIGN.md's contract for a command that takes several inputs (``weavecap fit PHOTO...``, and
+``render`` batches the same way): one input writes into ``OUT`` itself; several write into
+``OUT/<stem>`` each (``<stem>-2``, ... when stems repeat) and append one line per input to
+``OUT/summary.jsonl`` as each finishes. A bad input does not stop the batch; the batch exits
+with its most severe outcome (:data:`weavecap.errors.OUTCOMES`). Nothing is lost: a folder
+holding another run's results is refused unless ``force``; run again to resume — finished
+inputs (their record says ``ok`` or ``rejected`` and names the same file by its SHA-256) are
+skipped, failed ones are tried again, and each input keeps exactly one summary line.
+
+What is done to each input is a :class:`Job` (``weavecap.pipeline.FitJob`` for ``fit``); this
+module only plans, runs and records. Work runs in this process, in a local process pool
+(``jobs``), or on a Dask cluster (``scheduler``).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable, Iterable, Iterator, Protocol
+
+from .errors import InputError, WeavecapError, outcome, outcome_of_status, worst_exit
+from .io import atomic_write_text
+
+SUMMARY = "summary.jsonl"
+FINISHED = ("ok", "rejected")  # statuses of a record that a resumed batch skips
+
+
+class Job(Protocol):
+    """What a batch does to each input; picklable (it travels to worker processes).
+
+    Attributes
+    ----------
+    key : the summary line's name for the input (``"photo"``)
+    outputs : the files a result consists of, in its folder
+    record : the one of ``outputs`` written last, a JSON object with ``status``, ``reason``,
+        ``timings_s.total`` and ``input.sha256``: its presence marks a finished input
+    """
+
+    key: str
+    outputs: tuple[str, ...]
+    record: str
+
+    def run(self, source: str, folder: str) -> dict:
+        """Do the work on ``source``, write its outputs into ``folder`` (``record`` last) and
+        return the record. May raise; :func:`attempt` turns errors into outcomes."""
+
+    def failure_record(self, source: str, status: str, reason: str, seconds: float) -> dict:
+        """The record of an input that ended with an error (status ``rejected``/``failed``)."""
+
+    def summary(self, record: dict) -> dict:
+        """The fields an ``ok`` input adds to its summary line."""
+
+
+@dataclass(frozen=True)
+class Item:
+    """One input of a batch and the folder its outputs go to."""
+
+    source: Path
+    folder: Path
+
+
+@dataclass
+class Batch:
+    """A planned batch (:func:`plan`): what to do, and what an earlier run already did."""
+
+    job: Job
+    out: Path
+    items: list[Item]
+    todo: list[Item]
+    done: list[tuple[Item, dict]]  # finished earlier: (item, its record)
+    force: bool = False
+
+    @property
+    def several(self) -> bool:
+        """Several inputs: one folder each and a summary.jsonl (one input writes into ``out``)."""
+        return len(self.items) > 1
+
+    @property
+    def summary_path(self) -> Path:
+        return self.out / SUMMARY
+
+
+@dataclass(frozen=True)
+class Event:
+    """Progress of a batch, for the command line to report.
+
+    ``kind``: ``skipped`` (finished earlier), ``started`` (in this process only) or
+    ``finished``; ``index`` counts the items to do, of ``total``.
+    """
+
+    kind: str
+    item: Item
+    index: int
+    total: int
+    record: dict | None = None
+    line: dict | None = None
+
+
+@dataclass
+class Result:
+    """A batch's summary lines (finished earlier first, then in the order they ended) and its
+    exit status (:func:`weavecap.errors.worst_exit`)."""
+
+    lines: list[dict] = field(default_factory=list)
+
+    @property
+    def exit(self) -> int:
+        return worst_exit(line["exit"] for line in self.lines)
+
+
+def folders(sources: list[Path], out: Path) -> list[Path]:
+    """One output folder per input: ``out`` itself for one, ``out/<stem>[-k]`` for several."""
+    if len(sources) == 1:
+        return [out]
+    seen: dict[str, int] = {}
+    result = []
+    for p in sources:
+        k = seen.get(p.stem, 0)
+        seen[p.stem] = k + 1
+        result.append(out / (p.stem if k == 0 else f"{p.stem}-{k + 1}"))
+    return result
+
+
+def _record(job: Job, folder: Path) -> dict | None:
+    try:
+        record = json.loads((folder / job.record).read_text())
+    except (OSError, ValueError):
+        return None
+    return record if isinstance(record, dict) else None
+
+
+def _same_input(record: dict, source: Path) -> bool:
+    from .photo import file_sha256
+
+    try:
+        return record["input"]["sha256"] == file_sha256(source)
+    except (OSError, KeyError, TypeError):
+        return False
+
+
+def plan(job: Job, sources: Iterable[Path], out: Path, *, force: bool = False) -> Batch:
+    """Check a batch before any work and find what an earlier run finished. Writes nothing.
+
+    Raises
+    ------
+    InputError
+        ``out`` is a file; an input is missing; a folder holds results of another run (of
+        another input, or unfinished) and ``force`` is not given.
+    """
+    sources = [Path(s) for s in sources]
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"{out}: exists and is not a folder; give a folder name for -o")
+    for p in sources:
+        if not p.is_file():
+            raise InputError(f"{p}: no such {job.key}; check the path (nothing was written)")
+    items = [Item(p, f) for p, f in zip(sources, folders(sources, out))]
+    several = len(items) > 1
+    todo, done = [], []
+    for item in items:
+        record = None if force else _record(job, item.folder)
+        same = record is not None and _same_input(record, item.source)
+        if several and same and record.get("status") in FINISHED:
+            done.append((item, record))
+            continue
+        retry = same and record.get("status") == "failed"  # our own failure record: try again
+        if not force and not retry and any((item.folder / name).exists() for name in job.outputs):
+            raise InputError(f"{item.folder}: holds results of another run; use --force to overwrite them or choose "
+                             "another -o folder (nothing was written)")
+        todo.append(item)
+    return Batch(job=job, out=out, items=items, todo=todo, done=done, force=force)
+
+
+def summary_line(job: Job, item: Item, record: dict, status: str | None = None) -> dict:
+    """The summary.jsonl line of one input (``status``: the record's unless given)."""
+    status = status or record.get("status")
+    line = {job.key: str(item.source), "folder": str(item.folder), "status": status,
+            "exit": outcome_of_status(status).exit}
+    if status == "ok":
+        line.update(job.summary(record))
+    else:
+        line["reason"] = record.get("reason")
+    line["seconds"] = record.get("timings_s", {}).get("total")
+    return line
+
+
+def _set_threads(threads: int | None) -> None:
+    """Give Dr.Jit ``threads`` threads in this process (a worker sharing a machine)."""
+    if threads:
+        from .backend import mitsuba
+
+        mitsuba()
+        import drjit
+
+        drjit.set_thread_count(threads)
+
+
+def attempt(job: Job, source: str, folder: str, threads: int | None = None) -> tuple[dict, str]:
+    """Run ``job`` on one input; never raises but KeyboardInterrupt (a failure is a record).
+
+    Returns (record, status). An error a user caused (``invalid``) writes nothing; any other
+    error writes ``job.failure_record`` as the folder's record. Set ``WEAVECAP_DEBUG=1`` to let
+    unexpected errors through with their traceback.
+    """
+    _set_threads(threads)
+    t0 = time.perf_counter()
+    try:
+        record = job.run(source, folder)
+        return record, record["status"]
+    except Exception as exc:  # noqa: BLE001 - one bad input must not stop a batch
+        result = outcome(exc)
+        if result.status == "failed" and os.environ.get("WEAVECAP_DEBUG"):
+            raise
+        reason = str(exc) if isinstance(exc, WeavecapError) else f"unexpected error: {type(exc).__name__}: {exc}"
+    record = job.failure_record(source, result.status, reason, time.perf_counter() - t0)
+    if result.status != "invalid":
+        Path(folder).mkdir(parents=True, exist_ok=True)
+        atomic_write_text(Path(folder) / job.record, json.dumps(record, indent=1) + "\n")
+    return record, result.status
+
+
+def _append(path: Path, line: dict) -> None:
+    """Append one JSON line and flush it to disk (a crash loses at most the line being written)."""
+    with open(path, "a", encoding="utf-8") as fh:
+        fh.write(json.dumps(line) + "\n")
+        fh.flush()
+        os.fsync(fh.fileno())
+
+
+def _start_summary(batch: Batch, lines: list[dict]) -> None:
+    """Make summary.jsonl hold one line per input finished so far: with ``force`` it starts
+    empty; otherwise lines of the inputs about to be redone are dropped and those of inputs
+    finished earlier but missing (an interrupted write) added. Lines of other inputs stay."""
+    path = batch.summary_path
+    batch.out.mkdir(parents=True, exist_ok=True)
+    if batch.force:
+        path.unlink(missing_ok=True)
+        return
+    redo = {str(item.source) for item in batch.todo}
+    kept, recorded = [], set()
+    if path.exists():
+        for raw in path.read_text().splitlines():
+            try:
+                source = json.loads(raw)[batch.job.key]
+            except (ValueError, KeyError, TypeError):
+                continue
+            if source in redo or source in recorded:
+                continue
+            kept.append(raw)
+            recorded.add(source)
+        if len(kept) != len(path.read_text().splitlines()):
+            atomic_write_text(path, "".join(raw + "\n" for raw in kept))
+    for line in lines:
+        if line[batch.job.key] not in recorded:
+            _append(path, line)
+
+
+Outcomes = Iterator[tuple[Item, dict, str]]
+
+
+def _serial(batch: Batch, on_start: Callable[[Item, int], None]) -> Outcomes:
+    for i, item in enumerate(batch.todo, 1):
+        on_start(item, i)
+        yield (item, *attempt(batch.job, str(item.source), str(item.folder)))
+
+
+def _processes(batch: Batch, jobs: int) -> Outcomes:
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    threads = max(1, (os.cpu_count() or 1) // jobs)
+    with ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
+        futures = {pool.submit(attempt, batch.job, str(item.source), str(item.folder), threads): item
+                   for item in batch.todo}
+        for future in as_completed(futures):
+            yield (futures[future], *future.result())
+
+
+def run(batch: Batch, *, jobs: int = 1, on_event: Callable[[Event], None] | None = None) -> Result:
+    """Run a planned batch: each input to do, one after the other or ``jobs`` at a time in
+    worker processes; each finished input's line appended to summary.jsonl (several inputs)
+    and reported as an :class:`Event`.
+
+    Parameters
+    ----------
+    batch : from :func:`plan`
+    jobs : worker processes (1: in this process); Dr.Jit gets ``cpu_count // jobs`` threads each
+    on_event : called with each skipped, started (in this process) and finished input
+    """
+    tell = on_event or (lambda _event: None)
+    total = len(batch.todo)
+    result = Result()
+    for item, record in batch.done:
+        tell(Event("skipped", item, 0, total, record=record))
+        result.lines.append(summary_line(batch.job, item, record))
+    if batch.several:
+        _start_summary(batch, result.lines)
+    if jobs > 1 and total > 1:
+        outcomes = _processes(batch, jobs)
+    else:
+        outcomes = _serial(batch, lambda item, i: tell(Event("started", item, i, total)))
+    for i, (item, record, status) in enumerate(outcomes, 1):
+        line = summary_line(batch.job, item, record, status)
+        result.lines.append(line)
+        if batch.several:
+            _append(batch.summary_path, line)
+        tell(Event("finished", item, i, total, record=record, line=line))
+    return result
