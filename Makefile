@@ -38,7 +38,7 @@ fixtures: install
 	  $(BIN)/weavecap synth $$f -o fixtures/photos/$$(basename $$f .json).png --tiles 4x4 --size 512 --seed 0 --force; \
 	done
 
-# Performance figures of the README (cold and warm renders, forward and backward, memory)
+# Performance figures of docs/performance.md (cold and warm renders, forward and backward, memory)
 bench: install
 	$(BIN)/weavecap bench
 	$(BIN)/python scripts/measure_geometry.py

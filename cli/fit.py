@@ -15,7 +15,7 @@ from .options import force_option, quiet_option, seed_option, verbose_option
 @click.option("-o", "--output", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
               help="Output folder (one photo: its files; several: one sub-folder each + summary.jsonl).")
 @click.option("--quality", type=click.Choice(["draft", "normal", "high"]), default="normal", show_default=True,
-              help="Speed against accuracy (see the README's bench table).")
+              help="Speed against accuracy (docs/capture.md's fit bench).")
 @click.option("--light", type=click.Choice(["both", "front", "back"]), default="both", show_default=True,
               help="How the photo was lit: room light (front, back and sides), or front-only / back-only.")
 @click.option("--budget", "budget_s", type=click.FloatRange(min=1), default=None,

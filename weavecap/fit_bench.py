@@ -145,7 +145,7 @@ def summary(results: list[dict]) -> list[dict]:
 
 
 def table(rows: list[dict]) -> str:
-    """The README's fit bench tables (markdown)."""
+    """docs/capture.md's fit bench tables (markdown)."""
     out = ["| preset | photos fitted | median s | max s | pattern exact | median PSNR | plies ±1 | fibres ±1 |"
            " median rel. error (determined) | determined per photo | errors within 2 SE |"
            " median rel. error (all continuous) |", "|---|---|---|---|---|---|---|---|---|---|---|---|"]
