@@ -10,32 +10,6 @@ import click
 from .options import force_option, quiet_option, seed_option, verbose_option
 
 
-def _load_pattern(path: Path):
-    """A pattern from a params file (its ``pattern``) or a text file of 0/1 rows."""
-    import numpy as np
-
-    from weavecap.errors import InputError
-
-    try:
-        text = path.read_text()
-    except OSError as exc:
-        raise InputError(f"{path}: cannot read the pattern file ({exc.strerror}); give a params .json or a text "
-                         "file of 0/1 rows") from None
-    if path.suffix.lower() == ".json":
-        from weavecap import params
-
-        return params.load(path).pattern
-    rows = [line.replace(",", " ").split() for line in text.splitlines() if line.strip()]
-    try:
-        pattern = np.array([[int(v) for v in row] for row in rows], dtype=np.uint8)
-    except ValueError:
-        raise InputError(f"{path}: a pattern file holds rows of 0 and 1 separated by spaces") from None
-    if pattern.ndim != 2 or pattern.size == 0 or not np.isin(pattern, (0, 1)).all():
-        raise InputError(f"{path}: the pattern must be a non-empty rectangle of 0 and 1 "
-                         "(1 = weft over warp), one row per weft")
-    return pattern
-
-
 @click.command(context_settings={"max_content_width": 100})
 @click.argument("photos", nargs=-1, required=True, type=click.Path(dir_okay=False, path_type=Path), metavar="PHOTO...")
 @click.option("-o", "--output", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
@@ -54,7 +28,7 @@ def _load_pattern(path: Path):
 @click.option("--start-from", "start_from", type=click.Path(dir_okay=False, path_type=Path),
               help="Warm start: begin the fit at this params.json instead of the pre-estimate.")
 @click.option("--pattern", "pattern_file", type=click.Path(dir_okay=False, path_type=Path),
-              help="A known weave pattern (params .json, or a text file of 0/1 rows), kept fixed.")
+              help="A known weave pattern (params .json, .wif weaving draft, or a text file of 0/1 rows), kept fixed.")
 @click.option("--no-network", is_flag=True, help="Start from Table 1 defaults instead of the initializer network.")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON on standard output.")
 @seed_option
@@ -89,6 +63,7 @@ def fit(photos, out, quality, light, budget_s, jobs, scheduler, start_from, patt
     from weavecap import batch as wbatch
     from weavecap import params as wparams
     from weavecap.errors import InputError
+    from weavecap.patterns import load_pattern
     from weavecap.pipeline import CaptureOptions, FitJob
 
     def say(message: str, level: int = 0, error: bool = False) -> None:
@@ -115,7 +90,7 @@ def fit(photos, out, quality, light, budget_s, jobs, scheduler, start_from, patt
         wbatch.local_workers(scheduler)  # a bad local:N is a usage error before any work
     job = FitJob(CaptureOptions(quality=quality, light=light, seed=seed, budget_s=budget_s,
                                 start_from=wparams.load(start_from) if start_from else None,
-                                pattern=_load_pattern(pattern_file) if pattern_file else None,
+                                pattern=load_pattern(pattern_file) if pattern_file else None,
                                 use_network=not no_network))
     batch = wbatch.plan(job, photos, out, force=force)
     result = wbatch.run(batch, jobs=jobs, scheduler=scheduler, on_event=report)

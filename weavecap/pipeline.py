@@ -21,6 +21,7 @@ import numpy as np
 from . import params as wparams
 from .errors import PhotoError
 from .fit.config import PRESETS, FitConfig, cell_px_for
+from .fit.fidelity import captioned, fidelity
 from .fit.target import align_cells, repeat_cells
 from .io import atomic_write_text
 
@@ -64,6 +65,7 @@ class Capture:
     fabric: wparams.Fabric | None = None
     images: dict = field(default_factory=dict)  # output name → (H, W, 3) linear RGB
     history: list = field(default_factory=list)
+    captions: dict = field(default_factory=dict)  # output name → a line of text under the picture
 
     @property
     def status(self) -> str:
@@ -220,12 +222,13 @@ def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), 
     timings["uncertainty"] = time.perf_counter() - t
     timings["total"] = time.perf_counter() - t0
 
+    faithful = fidelity(target, rendered, result.fabric.pattern)
     report.update(status="ok", weave=weave_name(fabric.pattern))
     report["fit"] = {
         "psnr_db": round(psnr(rendered, target), 3), "iterations": result.iterations,
         "pattern_confidence": round(confidence, 4), "mse": result.loss, "stopped": result.stopped,
         "seconds": round(result.seconds, 3), "cell_px": c, "spp": config.spp, "moves": result.moves,
-        "pattern_fixed": options.pattern is not None,
+        "pattern_fixed": options.pattern is not None, "fidelity": faithful.to_json(),
         "parameters": {key: {"standard_error": round(se, 4) if np.isfinite(se) else None,
                              "determined": bool(se <= DETERMINED_SE)} for key, se in errors.items()},
     }
@@ -243,7 +246,8 @@ def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), 
     error = np.abs(rendered - target) * 4.0
     images = {"compare.png": np.concatenate([target, rendered, error], axis=1),
               "rectified.png": prepared.rectification.image, "grid.png": prepared.grid_overlay()}
-    return Capture(report=report, fabric=fabric, images=images, history=result.history)
+    return Capture(report=report, fabric=fabric, images=images, history=result.history,
+                   captions={"compare.png": faithful.caption()})
 
 
 def loss_plot(history: list[float], *, size: tuple[int, int] = (240, 400)) -> np.ndarray:
@@ -283,6 +287,10 @@ def write_capture(cap: Capture, out_dir: Path) -> None:
     if cap.fabric is not None:
         wparams.save(cap.fabric, out_dir / "params.json")
         for name, image in cap.images.items():
-            save_png(out_dir / name, _enlarged(image) if name == "compare.png" else image)
+            if name == "compare.png":
+                image = _enlarged(image)
+            if name in cap.captions:
+                image = captioned(image, cap.captions[name])
+            save_png(out_dir / name, image)
         save_png(out_dir / "loss.png", loss_plot(cap.history))
     atomic_write_text(out_dir / "report.json", json.dumps(cap.report, indent=1) + "\n")

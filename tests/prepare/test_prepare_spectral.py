@@ -145,3 +145,27 @@ def test_lattice_pitch_of_a_rib_counts_its_hidden_yarns_from_the_crossings():
     crossings = [(1 / px, 1 / py, 0.3), (2 / px, 1 / py, 0.2)]
     p, share = lattice_pitch(np.array(lattice + crossings), known_pitch=py, axis=0, tol=1e-4)
     assert p is not None and abs(p / px - 1) < 1e-6 and share == 1.0
+
+
+def test_spectrum_peaks_do_not_move_with_rounding_noise():
+    """A perturbation of one part in a million finds the same peaks: under OpenCV 5 a float32
+    local maximum compared with the float64 power dropped every peak that rounded up, and the
+    real W103 twill was rejected for want of its lattice (#0 of issue 11)."""
+    img, _ = render("satin_5", size=(256, 256), pitch_px=(11.0, 6.0), noise=0.01, seed=4)
+    grey = luminance(img).astype(np.float64)
+    rng = np.random.default_rng(0)
+    a = spectrum_peaks(grey, max_side=256)
+    for _ in range(3):
+        b = spectrum_peaks(grey * (1 + 1e-6 * rng.standard_normal(grey.shape)), max_side=256)
+        assert a.shape == b.shape and np.allclose(a[:, :2], b[:, :2], atol=1e-4)
+
+
+def test_lattice_pitch_finds_sub_bin_units():
+    """Peaks a fraction of a bin off the lattice still give the pitch to a fraction of a percent:
+    the unit is fitted over every peak on it, not read off the one it was found from."""
+    px, py, n = 16.9, 16.1, 4
+    rng = np.random.default_rng(3)
+    pts = [(a / (n * px) + rng.normal(0, 2e-4), b / (n * py) + rng.normal(0, 2e-4), 1.0 / (a * a + b * b))
+           for a in range(1, 6) for b in range(-5, 6) if (a - b) % n == 0 and b != 0]
+    p, share = lattice_pitch(np.array(pts), known_pitch=py, axis=0, tol=0.75 / 147)
+    assert p is not None and abs(p / px - 1) < 0.01, p

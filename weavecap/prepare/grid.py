@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
+from scipy.ndimage import maximum_filter
 
 
 @dataclass(frozen=True)
@@ -311,8 +312,9 @@ def spectrum_peaks(grey: np.ndarray, *, count: int = 16, rel_floor: float = 0.01
 
     Returns
     -------
-    (K, 3) array of (fx, fy, power), frequencies in cycles per pixel with fx ≥ 0, strongest
-    first; peaks within two natural bins of the origin (the lighting) are left out.
+    (K, 3) array of (fx, fy, power), frequencies in cycles per pixel with fx ≥ 0 (sub-bin: a
+    parabola through the log power along each axis), strongest first; peaks within two
+    natural bins of the origin (the lighting) are left out.
     """
     h, w = grey.shape
     n = int(min(h, w, max_side))
@@ -323,17 +325,36 @@ def spectrum_peaks(grey: np.ndarray, *, count: int = 16, rel_floor: float = 0.01
     c = size // 2
     yy, xx = np.indices(power.shape)
     half = ((xx > c) | ((xx == c) & (yy > c))) & (np.hypot(yy - c, xx - c) > 4)
-    mx = cv2.dilate(power.astype(np.float32), np.ones((5, 5), np.uint8))
+    # local maxima compared in the power's own precision: a float32 maximum against the float64
+    # power drops every peak whose value rounds up, a coin toss that moved with library versions
+    mx = maximum_filter(power, size=5, mode="wrap")
     top = float(power[half].max()) if np.any(half) else 0.0
     cand = np.argwhere(half & (power >= mx) & (power > rel_floor * top)) if top > 0 else np.empty((0, 2), int)
     cand = sorted(cand.tolist(), key=lambda p: -power[p[0], p[1]])[:count]
-    return np.array([((ix - c) / size, (iy - c) / size, power[iy, ix]) for iy, ix in cand]).reshape(-1, 3)
+    lp = np.log(power + 1e-300)
+
+    def sub(a: float, b: float, c_: float) -> float:  # parabola through the log power
+        den = a - 2 * b + c_
+        return float(np.clip(0.5 * (a - c_) / den, -0.5, 0.5)) if den < 0 else 0.0
+
+    out = []
+    for iy, ix in cand:
+        dy = sub(lp[iy - 1, ix], lp[iy, ix], lp[(iy + 1) % size, ix]) if 0 < iy else 0.0
+        dx = sub(lp[iy, ix - 1], lp[iy, ix], lp[iy, (ix + 1) % size]) if 0 < ix else 0.0
+        out.append(((ix + dx - c) / size, (iy + dy - c) / size, power[iy, ix]))
+    return np.array(out).reshape(-1, 3)
 
 
 def _lattice_share(values: np.ndarray, weights: np.ndarray, unit: float, tol: float) -> float:
-    """Power-weighted share of ``values`` lying within ``tol`` of a whole multiple of ``unit``."""
+    """Power-weighted share of ``values`` lying within ``tol`` of a whole multiple of ``unit``.
+
+    The tolerance is at most a quarter of the unit: within half a unit of a multiple lies every
+    value, so a looser test could not fail (a 7-end repeat's lattice unit in a crop of under
+    two repeats is a bin or so, the size of ``tol``; a 5-end count then passed on any peaks).
+    """
+    t = min(tol, unit / 4)
     off = np.abs(values / unit - np.round(values / unit)) * unit
-    return float(weights[off <= tol].sum() / max(float(weights.sum()), 1e-300))
+    return float(weights[off <= t].sum() / max(float(weights.sum()), 1e-300))
 
 
 def lattice_pitch(peaks: np.ndarray, *, known_pitch: float, axis: int, max_yarns: int = 12,
@@ -382,8 +403,24 @@ def lattice_pitch(peaks: np.ndarray, *, known_pitch: float, axis: int, max_yarns
             break
         share = _lattice_share(sought, w, u, tol)
         if share >= min_share:
+            u = _refine_unit(sought, w, u, tol)
             return 1.0 / (_hidden_yarns(known, sought, w, k=k, u=u, tol=tol, default=n) * u), share
     return None, 0.0
+
+
+def _refine_unit(values: np.ndarray, weights: np.ndarray, unit: float, tol: float) -> float:
+    """The lattice unit that puts the peaks on its multiples best: the power-weighted least
+    squares slope of the peaks within ``tol`` of a multiple of ``unit`` against that multiple.
+
+    ``unit`` is one of the peaks divided by a whole number, so it carries that one peak's error
+    (a spectral bin of a small photo is a large share of a low frequency); every peak on the
+    lattice counts in the slope.
+    """
+    m = np.round(values / unit)
+    on = (m >= 1) & (np.abs(values - m * unit) <= min(tol, unit / 4))
+    if not np.any(on):
+        return unit
+    return float((weights[on] * m[on] * values[on]).sum() / (weights[on] * m[on] ** 2).sum())
 
 
 def _hidden_yarns(known: np.ndarray, sought: np.ndarray, w: np.ndarray, *, k: float, u: float, tol: float,

@@ -1,0 +1,89 @@
+"""Fidelity figures (weavecap/fit/fidelity.py) on canvases with a known answer."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.ndimage import gaussian_filter
+
+from weavecap.fit.fidelity import captioned, family_masks, fidelity
+
+C = 16
+TWILL = np.array([[1, 1, 0], [0, 1, 1], [1, 0, 1]], np.uint8)
+RED, BLUE = np.array([0.6, 0.08, 0.05]), np.array([0.05, 0.1, 0.5])
+
+
+def _canvas(pattern, warp, weft):
+    """A repeat: each cell the colour of its top yarn, with its yarn's stripes (warps run down,
+    wefts across) and dark gaps at the cell edges."""
+    n_e, n_a = pattern.shape
+    img = np.zeros((n_e * C, n_a * C, 3))
+    yy, xx = np.mgrid[0:C, 0:C]
+    edge = np.minimum(np.minimum(yy, C - 1 - yy), np.minimum(xx, C - 1 - xx))
+    for i in range(n_e):
+        for j in range(n_a):
+            weft_top = pattern[i, j] == 1
+            stripes = 0.8 + 0.2 * np.cos(2 * np.pi * (yy if weft_top else xx) / 4.0)
+            cell = (weft if weft_top else warp)[None, None] * stripes[..., None]
+            cell = np.where((edge < 1)[..., None], 0.02, cell)
+            img[i * C:(i + 1) * C, j * C:(j + 1) * C] = cell
+    return img
+
+
+def test_a_photo_against_itself_is_perfect():
+    photo = _canvas(TWILL, RED, BLUE)
+    f = fidelity(photo, photo, TWILL)
+    assert abs(f.sharpness - 1) < 1e-12 and abs(f.structure - 1) < 1e-12
+    assert f.delta_e["warp"] < 1e-6 and f.delta_e["weft"] < 1e-6
+
+
+def test_a_blurred_copy_scores_low_sharpness():
+    photo = _canvas(TWILL, RED, BLUE)
+    blurred = gaussian_filter(photo, (C / 6, C / 6, 0), mode="wrap")
+    f = fidelity(photo, blurred, TWILL)
+    assert f.sharpness < 0.1, f.sharpness
+    # the colours are still right: only sharpness (and structure, less) tells a blur
+    assert max(f.delta_e.values()) < 3 and 0.5 < f.structure < 0.8
+    # the energy falls fast with σ: the gaps and the yarns' stripes are a few px wide
+    light = fidelity(photo, gaussian_filter(photo, (0.5, 0.5, 0), mode="wrap"), TWILL)
+    assert 0.5 < light.sharpness < 0.7 and light.structure > 0.98
+
+
+def test_swapped_colours_score_a_high_colour_difference():
+    photo = _canvas(TWILL, RED, BLUE)
+    swapped = _canvas(TWILL, BLUE, RED)
+    f = fidelity(photo, swapped, TWILL)
+    assert min(f.delta_e.values()) > 40, f.delta_e
+    # a uniform grey haze of the right mean: colours far off, no structure
+    haze = np.broadcast_to(photo.mean(axis=(0, 1)), photo.shape)
+    g = fidelity(photo, haze, TWILL)
+    assert min(g.delta_e.values()) > 10 and g.sharpness == 0
+
+
+def test_family_masks_follow_the_pattern():
+    m = family_masks(TWILL, (3 * C, 3 * C), centre_share=0.5)
+    assert not np.any(m["warp"] & m["weft"])
+    # the centre of cell (0, 2) (warp on top) and of cell (0, 0) (weft on top)
+    assert m["warp"][C // 2, 2 * C + C // 2] and m["weft"][C // 2, C // 2]
+    assert m["warp"].sum() == 3 * (C // 2) ** 2 and m["weft"].sum() == 6 * (C // 2) ** 2
+
+
+def test_a_family_the_pattern_never_shows_is_nan_not_an_error():
+    p = np.ones((2, 2), np.uint8)
+    photo = _canvas(p, RED, BLUE)
+    f = fidelity(photo, photo, p)
+    assert np.isnan(f.delta_e["warp"]) and f.to_json()["delta_e"]["warp"] is None
+    assert np.isfinite(f.delta_e["weft"])
+
+
+def test_black_and_nan_free():
+    black = np.zeros((2 * C, 2 * C, 3))
+    f = fidelity(black, black, np.array([[1, 0], [0, 1]]))
+    assert np.isnan(f.sharpness) and f.to_json()["sharpness"] is None
+    assert f.delta_e["warp"] == 0
+
+
+def test_caption_strip_below_the_image():
+    img = np.full((40, 300, 3), 0.5, np.float32)
+    out = captioned(img, "sharpness 0.91  dE2000 warp 2.1 weft 3.4  structure 0.95")
+    assert out.shape == (62, 300, 3) and np.all(out[:40] == img)
+    assert out[40:].min() < 0.2 and out[40:].max() > 0.9  # dark text on white

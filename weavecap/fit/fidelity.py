@@ -1,0 +1,145 @@
+"""How faithful a capture is to its photo (issue 11; DESIGN.md "A capture is judged by its photo").
+
+PSNR rewards a blur: a fit that averages the photo's structure away scores well against a
+noisy photo. These figures compare the photo's repeat with the fit's render of it (both one
+repeat on the same cell canvas, :mod:`weavecap.estimate.cells`) the way a person looks at
+compare.png:
+
+- **sharpness** — the render's gradient energy (mean squared gradient of the linear
+  luminance, the canvas wrapping around) over the photo's: 1 as sharp as the photo, below 1
+  blurrier (a Gaussian blur of σ = a sixth of a cell leaves about a third), above 1 sharper;
+- **colour difference per yarn family** — CIEDE2000 between the mean colour of the visible
+  warp in the photo and in the render (and likewise the weft): the centre of every cell the
+  pattern gives to that family (the yarn on top there), its middle ``centre_share`` of each
+  side; means are taken in linear RGB (what the eye sees of a yarn from afar), then converted
+  to CIELAB (D65, sRGB primaries);
+- **structure correlation** — Pearson's correlation of the two luminance images.
+
+A photo compared with itself scores sharpness 1, ΔE 0 and correlation 1.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+LUMA = np.array([0.2126, 0.7152, 0.0722])  # Rec. 709 / sRGB primaries, linear
+
+
+@dataclass(frozen=True)
+class Fidelity:
+    """The fidelity figures of one capture (see the module's description).
+
+    Attributes
+    ----------
+    sharpness : render's gradient energy / photo's.
+    delta_e : {"warp": ΔE2000, "weft": ΔE2000}, NaN for a family the pattern never shows.
+    structure : Pearson correlation of the luminances (-1..1).
+    lab : {"warp": {"photo": L*a*b*, "render": L*a*b*}, "weft": ...}.
+    """
+
+    sharpness: float
+    delta_e: dict
+    structure: float
+    lab: dict
+
+    def to_json(self) -> dict:
+        """report.json's ``fit.fidelity``."""
+        def num(v, nd=3):
+            return round(float(v), nd) if np.isfinite(v) else None
+
+        return {"sharpness": num(self.sharpness), "delta_e": {k: num(v, 2) for k, v in self.delta_e.items()},
+                "structure": num(self.structure, 4),
+                "lab": {fam: {side: [num(x, 2) for x in lab] for side, lab in d.items()} for fam, d in self.lab.items()}}
+
+    def caption(self) -> str:
+        """One line for compare.png."""
+        de = " ".join(f"{k} {v:.1f}" if np.isfinite(v) else f"{k} -" for k, v in self.delta_e.items())
+        return f"sharpness {self.sharpness:.2f}  dE2000 {de}  structure {self.structure:.2f}"
+
+
+def luminance(image: np.ndarray) -> np.ndarray:
+    """(H, W) linear luminance of a (H, W, 3) linear RGB image."""
+    return np.asarray(image, np.float64)[..., :3] @ LUMA
+
+
+def gradient_energy(image: np.ndarray) -> float:
+    """Mean squared gradient (per pixel², forward differences, wrapping) of the luminance."""
+    y = luminance(image)
+    return float(np.mean((np.roll(y, -1, 0) - y) ** 2 + (np.roll(y, -1, 1) - y) ** 2))
+
+
+def family_masks(pattern: np.ndarray, shape: tuple[int, int], *, centre_share: float = 0.5) -> dict:
+    """Boolean (H, W) masks of the centres of the cells where the warp (pattern 0) and the weft
+    (pattern 1) is on top, for a canvas of ``shape`` holding one repeat of ``pattern``."""
+    p = np.asarray(pattern)
+    n_e, n_a = p.shape
+    h, w = shape
+    yy = (np.arange(h) + 0.5) / h * n_e
+    xx = (np.arange(w) + 0.5) / w * n_a
+    cy, cx = np.floor(yy).astype(int), np.floor(xx).astype(int)
+    lo, hi = 0.5 - centre_share / 2, 0.5 + centre_share / 2
+    in_y = ((yy - cy) >= lo) & ((yy - cy) < hi)
+    in_x = ((xx - cx) >= lo) & ((xx - cx) < hi)
+    centre = in_y[:, None] & in_x[None, :]
+    state = p[cy[:, None], cx[None, :]]
+    return {"warp": centre & (state == 0), "weft": centre & (state == 1)}
+
+
+def mean_lab(image: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """CIELAB (D65) of the mean linear RGB of ``image`` over ``mask``; NaN where it is empty."""
+    from skimage.color import rgb2lab
+
+    from ..photo import linear_to_srgb
+
+    if not np.any(mask):
+        return np.full(3, np.nan)
+    rgb = np.clip(np.asarray(image, np.float64)[mask][:, :3].mean(axis=0), 0.0, 1.0)
+    return rgb2lab(np.clip(linear_to_srgb(rgb), 0.0, 1.0).reshape(1, 1, 3))[0, 0]
+
+
+def fidelity(photo: np.ndarray, render: np.ndarray, pattern: np.ndarray, *, centre_share: float = 0.5) -> Fidelity:
+    """The fidelity figures of ``render`` against ``photo``.
+
+    Parameters
+    ----------
+    photo, render : (n_e*c, n_a*c, 3) linear RGB canvases of one repeat (the fit's target and
+        its render as photographed: clipped at the photo's white level, blurred by its blur).
+    pattern : (n_e, n_a) the fitted pattern, 1 = weft over warp: which family each cell shows.
+    centre_share : the middle share of each cell side whose colour counts.
+    """
+    from skimage.color import deltaE_ciede2000
+
+    photo = np.asarray(photo, np.float64)
+    render = np.asarray(render, np.float64)
+    if photo.shape != render.shape:
+        raise ValueError(f"photo {photo.shape} and render {render.shape} differ in shape")
+    e_photo = gradient_energy(photo)
+    sharp = gradient_energy(render) / e_photo if e_photo > 0 else float("nan")
+    masks = family_masks(pattern, photo.shape[:2], centre_share=centre_share)
+    lab, de = {}, {}
+    for fam, mask in masks.items():
+        a, b = mean_lab(photo, mask), mean_lab(render, mask)
+        lab[fam] = {"photo": a, "render": b}
+        de[fam] = float(deltaE_ciede2000(a, b)) if np.all(np.isfinite(a)) and np.all(np.isfinite(b)) else float("nan")
+    ya, yb = luminance(photo).ravel(), luminance(render).ravel()
+    sa, sb = ya.std(), yb.std()
+    corr = float(np.mean((ya - ya.mean()) * (yb - yb.mean())) / (sa * sb)) if sa > 0 and sb > 0 else float("nan")
+    return Fidelity(sharpness=float(sharp), delta_e=de, structure=corr, lab=lab)
+
+
+def captioned(image: np.ndarray, text: str, *, height: int = 22) -> np.ndarray:
+    """``image`` (H, W, 3) linear RGB with a white strip below it holding ``text`` in black
+    (for compare.png); the text is scaled to fit the width."""
+    import cv2
+
+    from ..photo import srgb_to_linear
+
+    h, w = image.shape[:2]
+    strip = np.full((height, w, 3), 255, np.uint8)
+    font, thick = cv2.FONT_HERSHEY_SIMPLEX, 1
+    (tw, th), _ = cv2.getTextSize(text, font, 1.0, thick)
+    scale = min(0.5, 0.95 * w / max(tw, 1), 0.7 * height / max(th, 1))
+    cv2.putText(strip, text, (4, int(height * 0.72)), font, scale, (0, 0, 0), thick, cv2.LINE_AA)
+    return np.concatenate([np.asarray(image, np.float32), srgb_to_linear(strip.astype(np.float32) / 255.0)], axis=0)
