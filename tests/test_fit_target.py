@@ -198,6 +198,7 @@ def test_the_end_stage_fits_the_best_named_weave_even_when_it_looked_worse_unfit
 
     monkeypatch.setattr(rounds, "best_named_weave", fake_best_named_weave)
     monkeypatch.setattr(rounds, "_fit_round", fake_round)
+    monkeypatch.setattr(rounds, "photo_votes", lambda prepared, cells, fabric, rig, c: np.zeros(fabric.shape))
     custom = np.array([[0, 1, 1, 1], [0, 0, 0, 1], [1, 1, 0, 0], [0, 1, 1, 0]], dtype=np.uint8)
     assert not rounds.is_named_weave(custom)
     start = params.load(FIXTURES / "plain.json").replace({"pattern": custom})
