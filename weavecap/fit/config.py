@@ -63,6 +63,9 @@ class FitConfig:
         least this decided keeps the vote's state through the fit: on the independent bench
         photos 98% of such cells were right (92% of those voted 0.3–0.5, 70% under 0.05); on
         the forward model's own renders no cell reaches it (votes ≤ 0.43)
+    vote_margin : the named-weave end stage keeps a custom pattern whose agreement with the
+        votes (:func:`weavecap.estimate.orientation.agreement`) is more than this above the
+        named weave's
     """
 
     iterations: int = 120
@@ -90,6 +93,7 @@ class FitConfig:
     named_weave_tolerance: float = 0.05
     family_colours: bool = True
     vote_lock: float = 0.5
+    vote_margin: float = 0.05
 
     def with_(self, **changes) -> "FitConfig":
         return replace(self, **changes)

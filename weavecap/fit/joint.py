@@ -336,7 +336,7 @@ def solve_colours(fs: FabricScene, target: np.ndarray, measure: Callable[[], flo
 
 
 def match_family_colours(fs: FabricScene, target: np.ndarray, measure: Callable[[], float], *, spp: int,
-                         blur_px: float) -> dict:
+                         blur_px: float, gain: bool = False) -> dict:
     """End on the photo's own yarn colours (§5.2): scale each family's body colours (R^B and
     S^B together, per channel) so that the render's mean colour over the centres of the cells
     where that family is on top equals the photo's there
@@ -345,8 +345,10 @@ def match_family_colours(fs: FabricScene, target: np.ndarray, measure: Callable[
     The MSE weighs every pixel alike, so a fit can trade the yarn centres' colour for the gaps,
     the edges or the highlights; what a person sees of a yarn is its colour where it lies on
     top. The render is linear in each family's colours, so three renders (both families black,
-    each alone at its colour) give a 2 × 2 system per channel. Colours stay within [0, 1].
-    Returns the renders made, the loss before and after, and the scales.
+    each alone at its colour) give a 2 × 2 system per channel. Colours stay within [0, 1];
+    with ``gain`` a colour that would pass 1 raises the rig's gain (all channels alike)
+    instead, and every colour comes down by as much. Returns the renders made, the loss
+    before and after, and the scales.
     """
     from .fidelity import family_masks
 
@@ -378,9 +380,12 @@ def match_family_colours(fs: FabricScene, target: np.ndarray, measure: Callable[
         b = np.array([target[..., ch][masks[f]].mean() - dark[..., ch][masks[f]].mean() for f in families])
         if abs(np.linalg.det(a)) > 1e-12:
             scale[:, ch] = np.clip(np.linalg.solve(a, b), 0.0, None)
-    for i, f in enumerate(families):
-        for k in keys[f]:
-            fs.set(k, tuple(np.clip(np.asarray(before[k], np.float64) * scale[i], 0.0, 1.0)))
+    wanted = {k: np.asarray(before[k], np.float64) * scale[i] for i, f in enumerate(families) for k in keys[f]}
+    over = max(1.0, max(float(v.max()) for v in wanted.values())) if gain else 1.0
+    if over > 1.0:
+        fs.rig = fs.rig.with_gain(np.asarray(fs.rig.gain) * over)
+    for k, v in wanted.items():
+        fs.set(k, tuple(np.clip(v / over, 0.0, 1.0)))
     return {"renders": 2 + len(families), "loss_before": loss_before, "loss_after": measure(),
             "scale": {f: [round(float(v), 4) for v in scale[i]] for i, f in enumerate(families)}}
 
@@ -570,7 +575,10 @@ def fit(target: np.ndarray, start: Fabric, *, config: FitConfig = FitConfig(), l
     moves = {k: {"proposed": v[0], "accepted": v[1]} for k, v in {**annealer.moves, **search.moves}.items()}
     if config.family_colours and colour_keys:  # end on the photo's own yarn colours
         fs = build_scene(best_fabric, fs.view, light=best_rig)
-        matched = match_family_colours(fs, target, measure, spp=config.spp, blur_px=blur_px)
+        pinned = bool(solves) and any(solves[-1].get("gain_determined", []))  # the gaps fixed the gain
+        matched = match_family_colours(fs, target, measure, spp=config.spp, blur_px=blur_px,
+                                       gain=fit_gain and not pinned)
+        best_rig = fs.rig
         moves["family_colours"] = {"renders": matched["renders"], "scale": matched["scale"],
                                    "loss_rise": round(matched["loss_after"] / max(matched["loss_before"], 1e-12) - 1, 4)}
         best_loss, best_fabric = matched["loss_after"], fs.to_fabric()

@@ -46,6 +46,15 @@ class RegisteredFit:
     blur_px: float
     notes: dict = field(default_factory=dict)
 
+    def agreement(self) -> float:
+        """How well the fitted pattern agrees with the model-free votes of this round's own
+        target (:func:`weavecap.estimate.orientation.agreement`; 0.5: the votes say nothing)."""
+        from ..estimate.orientation import agreement, cell_votes
+
+        if self.target is None:
+            return 0.5
+        return agreement(self.result.fabric.pattern, cell_votes(self.target, self.result.fabric.shape))
+
     @property
     def rig(self) -> LightRig:
         """The light rig with the gain fitted to the photo (its exposure and white balance)."""
@@ -232,10 +241,8 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
     best = firsts[chosen]
     tied = []
     if votes is not None and np.any(votes):  # starts the loss cannot tell apart: the votes decide
-        from ..estimate.orientation import agreement
-
         tied = [name for name in firsts if name != chosen and same_within_noise(best, firsts[name], spp=config.spp)]
-        backed = max([chosen] + tied, key=lambda name: agreement(firsts[name].result.fabric.pattern, votes))
+        backed = max([chosen] + tied, key=lambda name: firsts[name].agreement())
         chosen, best = backed, firsts[backed]
     notes = {"cell_shift": [best.notes["cell_shift"]]}
     if explore_patterns:
@@ -263,9 +270,14 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
             last = _fit_round(prepared, best.cells, best.result.fabric.replace({"pattern": named}), best.rig, per_round,
                               c=c, fixed=fixed | {"pattern"}, seed=options.seed + k, budget_s=budget(runs - 1))
             history += last.result.history
-            taken = last.result.loss <= best.result.loss * (1.0 + config.named_weave_tolerance)
+            # within the tolerance a named weave is likelier a priori — unless the photo's own
+            # votes back the custom pattern better (a random weave a cell or two off a twill)
+            votes_named, votes_custom = last.agreement(), best.agreement()
+            taken = (last.result.loss <= best.result.loss * (1.0 + config.named_weave_tolerance)
+                     and votes_named >= votes_custom - config.vote_margin)
             notes["named_weave"] = {"pattern": named.astype(int).tolist(), "loss": round(last.result.loss, 6),
-                                    "fitted_loss": round(best.result.loss, 6), "taken": taken}
+                                    "fitted_loss": round(best.result.loss, 6), "taken": taken,
+                                    "votes_agree": [round(votes_named, 3), round(votes_custom, 3)]}
             if taken:
                 best = last
     result = dataclasses.replace(best.result, history=history, iterations=len(history),
