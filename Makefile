@@ -31,14 +31,15 @@ test: install
 man: install
 	$(BIN)/python -m weavecap.cli.manpages man
 
-# The fixtures' synthetic photos (committed; the command that made them, for every fixture)
+# The fixtures' meshes and synthetic photos (committed; the command that made them, for every fixture)
 fixtures: install
+	$(BIN)/python fixtures/make_meshes.py
 	mkdir -p fixtures/photos
 	for f in fixtures/params/*.json; do \
 	  $(BIN)/weavecap synth $$f -o fixtures/photos/$$(basename $$f .json).png --tiles 4x4 --size 512 --seed 0 --force; \
 	done
 
-# Performance figures of the README (cold and warm renders, forward and backward, memory)
+# Performance figures of docs/performance.md (cold and warm renders, forward and backward, memory)
 bench: install
 	$(BIN)/weavecap bench
 	$(BIN)/python scripts/measure_geometry.py

@@ -1,4 +1,4 @@
-"""``weavecap bench``: measured speed and accuracy (the README's Performance and fit tables)."""
+"""``weavecap bench``: measured speed and accuracy (docs/performance.md's and docs/capture.md's tables)."""
 
 from __future__ import annotations
 

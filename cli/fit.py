@@ -10,56 +10,33 @@ import click
 from .options import force_option, quiet_option, seed_option, verbose_option
 
 
-def _load_pattern(path: Path):
-    """A pattern from a params file (its ``pattern``) or a text file of 0/1 rows."""
-    import numpy as np
-
-    from weavecap.errors import InputError
-
-    try:
-        text = path.read_text()
-    except OSError as exc:
-        raise InputError(f"{path}: cannot read the pattern file ({exc.strerror}); give a params .json or a text "
-                         "file of 0/1 rows") from None
-    if path.suffix.lower() == ".json":
-        from weavecap import params
-
-        return params.load(path).pattern
-    rows = [line.replace(",", " ").split() for line in text.splitlines() if line.strip()]
-    try:
-        pattern = np.array([[int(v) for v in row] for row in rows], dtype=np.uint8)
-    except ValueError:
-        raise InputError(f"{path}: a pattern file holds rows of 0 and 1 separated by spaces") from None
-    if pattern.ndim != 2 or pattern.size == 0 or not np.isin(pattern, (0, 1)).all():
-        raise InputError(f"{path}: the pattern must be a non-empty rectangle of 0 and 1 "
-                         "(1 = weft over warp), one row per weft")
-    return pattern
-
-
 @click.command(context_settings={"max_content_width": 100})
 @click.argument("photos", nargs=-1, required=True, type=click.Path(dir_okay=False, path_type=Path), metavar="PHOTO...")
 @click.option("-o", "--output", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
               help="Output folder (one photo: its files; several: one sub-folder each + summary.jsonl).")
 @click.option("--quality", type=click.Choice(["draft", "normal", "high"]), default="normal", show_default=True,
-              help="Speed against accuracy (see the README's bench table).")
+              help="Speed against accuracy (docs/capture.md's fit bench).")
 @click.option("--light", type=click.Choice(["auto", "both", "front", "back"]), default="auto", show_default=True,
               help="How the photo was lit: room light (front, back and sides), front-only or back-only; auto "
                    "decides from the photo (dark gaps: front, bright gaps: both).")
 @click.option("--budget", "budget_s", type=click.FloatRange(min=1), default=None,
               help="Stop each photo's fit after this many seconds (the best result so far is kept).")
 @click.option("--jobs", type=click.IntRange(min=1, max=64), default=1, show_default=True,
-              help="Photos fitted in parallel processes.")
+              help="Photos fitted in parallel processes on this machine.")
+@click.option("--scheduler", metavar="ADDRESS",
+              help="Run the batch on a Dask cluster: a scheduler's address (tcp://host:8786, see `dask scheduler`), "
+                   "or local:N for N workers here. A photo whose worker dies is retried once.")
 @click.option("--start-from", "start_from", type=click.Path(dir_okay=False, path_type=Path),
               help="Warm start: begin the fit at this params.json instead of the pre-estimate.")
 @click.option("--pattern", "pattern_file", type=click.Path(dir_okay=False, path_type=Path),
-              help="A known weave pattern (params .json, or a text file of 0/1 rows), kept fixed.")
+              help="A known weave pattern (params .json, .wif weaving draft, or a text file of 0/1 rows), kept fixed.")
 @click.option("--no-network", is_flag=True, help="Start from Table 1 defaults instead of the initializer network.")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON on standard output.")
 @seed_option
 @force_option
 @verbose_option
 @quiet_option
-def fit(photos, out, quality, light, budget_s, jobs, start_from, pattern_file, no_network, as_json, seed, force,
+def fit(photos, out, quality, light, budget_s, jobs, scheduler, start_from, pattern_file, no_network, as_json, seed, force,
         verbose, quiet):
     """Capture woven fabrics from close-up photos: pattern, yarn geometry and appearance.
 
@@ -72,17 +49,22 @@ def fit(photos, out, quality, light, budget_s, jobs, start_from, pattern_file, n
     A photo that is not a resolvable woven fabric gets a report.json saying why and no
     params.json. A batch goes on past bad photos, writes OUT/summary.jsonl one line per photo
     as each finishes, and exits with the worst status. Run it again to resume: finished photos
-    are skipped (unless --force); results are never overwritten without --force.
+    are skipped (unless --force); results are never overwritten without --force. With
+    --scheduler the photos are fitted on a Dask cluster (the same outputs and summary lines;
+    photos and OUT on a file system every worker sees).
 
     \b
     Examples:
       weavecap fit swatch.jpg -o swatch/
       weavecap fit photos/*.jpg -o catalogue/ --jobs 2 --quality draft
+      weavecap fit /shared/photos/*.jpg -o /shared/catalogue/ --scheduler tcp://head:8786
       weavecap fit swatch.dng -o swatch/ --light back --budget 30 --force
       weavecap fit swatch.jpg -o refit/ --start-from swatch/params.json --pattern twill.txt
     """
     from weavecap import batch as wbatch
     from weavecap import params as wparams
+    from weavecap.errors import InputError
+    from weavecap.patterns import load_pattern
     from weavecap.pipeline import CaptureOptions, FitJob
 
     def say(message: str, level: int = 0, error: bool = False) -> None:
@@ -102,12 +84,17 @@ def fit(photos, out, quality, light, budget_s, jobs, start_from, pattern_file, n
         else:
             say(f"{where} {photo}: {event.line['status']}: {record.get('reason')}", error=True)
 
+    if scheduler and jobs > 1:
+        raise InputError("--jobs and --scheduler exclude each other: --jobs N runs N processes here, "
+                         "--scheduler local:N runs N Dask workers here")
+    if scheduler:
+        wbatch.local_workers(scheduler)  # a bad local:N is a usage error before any work
     job = FitJob(CaptureOptions(quality=quality, light=light, seed=seed, budget_s=budget_s,
                                 start_from=wparams.load(start_from) if start_from else None,
-                                pattern=_load_pattern(pattern_file) if pattern_file else None,
+                                pattern=load_pattern(pattern_file) if pattern_file else None,
                                 use_network=not no_network))
     batch = wbatch.plan(job, photos, out, force=force)
-    result = wbatch.run(batch, jobs=jobs, on_event=report)
+    result = wbatch.run(batch, jobs=jobs, scheduler=scheduler, on_event=report)
     if as_json:
         click.echo(json.dumps(result.lines if batch.several else result.lines[0], indent=1))
     if result.exit:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import click
 
 force_option = click.option("--force", is_flag=True, help="Overwrite outputs that already exist.")
@@ -9,6 +11,10 @@ seed_option = click.option("--seed", type=int, default=0, show_default=True,
                            help="Random seed; the same seed gives the same result.")
 verbose_option = click.option("-v", "--verbose", count=True, help="Say more (repeat for more).")
 quiet_option = click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
+pattern_option = click.option(
+    "--pattern", "pattern_file", type=click.Path(dir_okay=False, path_type=Path),
+    help="Use this weave pattern instead of the params file's: a .wif weaving draft, a params .json, "
+         "or a text file of 0/1 rows (1 = weft over warp).")
 
 
 def parse_tiles(ctx, param, value: str) -> tuple[int, int]:

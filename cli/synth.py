@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from .options import force_option, parse_tiles, quiet_option, seed_option
+from .options import force_option, parse_tiles, pattern_option, quiet_option, seed_option
 
 
 @click.command(context_settings={"max_content_width": 100})
@@ -30,11 +30,12 @@ from .options import force_option, parse_tiles, quiet_option, seed_option
               help="Field of view of the perspective camera, degrees.")
 @click.option("--noise/--no-noise", default=True, show_default=True,
               help="Add the irregularity noise stored in the params file (§6.3), if it has any.")
+@pattern_option
 @seed_option
 @force_option
 @quiet_option
-def synth(params_file: Path, output: Path, tiles, size, light, spp, rotate_deg, camera, fov_deg, noise, seed,
-          force, quiet):
+def synth(params_file: Path, output: Path, tiles, size, light, spp, rotate_deg, camera, fov_deg, noise, pattern_file,
+          seed, force, quiet):
     """Render a synthetic close-up photo of the fabric in PARAMS.json.
 
     The forward model of weavecap: yarn tubes swept along the weave (Algorithm 1), shaded with
@@ -46,6 +47,7 @@ def synth(params_file: Path, output: Path, tiles, size, light, spp, rotate_deg, 
       weavecap synth fixtures/params/twill_2_1.json -o twill.png
       weavecap synth fabric.json -o close.exr --tiles 1x1 --size 128 --light front
       weavecap synth fabric.json -o turned.png --rotate 20 --camera perspective --seed 3
+      weavecap synth fabric.json -o draft.png --pattern draft.wif
     """
     from weavecap import params as wparams
     from weavecap.io import refuse_overwrite
@@ -54,6 +56,10 @@ def synth(params_file: Path, output: Path, tiles, size, light, spp, rotate_deg, 
     supported_output(output)  # fail on a bad extension before any work
     refuse_overwrite(output, force=force)
     fabric = wparams.load(params_file)
+    if pattern_file is not None:
+        from weavecap.patterns import load_pattern
+
+        fabric = fabric.replace({"pattern": load_pattern(pattern_file)})
 
     from weavecap.model.render import render_numpy
     from weavecap.model.scene import View, build_scene

@@ -3,7 +3,7 @@ and triangle tubes swept along the same splines (weavecap.model.geometry).
 
 For each scene: the same camera rays and shadow rays (the integrator's workload) cast against
 both, first call in the process and the warm median, plus whether they agree on what is hit.
-Run: ``.venv/bin/python scripts/measure_geometry.py``; the README quotes its output.
+Run: ``.venv/bin/python scripts/measure_geometry.py``; docs/model.md quotes its output.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Speed and memory of the forward model, for ``weavecap bench`` and the README's table.
+"""Speed and memory of the forward model, for ``weavecap bench`` and docs/performance.md.
 
 Each case runs in a fresh process with an empty Dr.Jit kernel cache, so "cold" is what a user
 waits for the first time (tracing + compiling every kernel) and "warm" the median of later
@@ -97,7 +97,7 @@ def run_cold(case: Case) -> dict:
 
 
 def table(results: list[dict]) -> str:
-    """The README's Performance table (markdown)."""
+    """docs/performance.md's table (markdown)."""
     lines = ["| case | call | cold (first) | warm (median) |", "|---|---|---|---|"]
     labels = (("render", "render (new view: rays + shading)"), ("step_forward", "fit step, forward"),
               ("step_forward_backward", "fit step, forward + backward"))

@@ -236,7 +236,7 @@ def independent_table(rows: list[dict]) -> str:
 
 
 def table(rows: list[dict]) -> str:
-    """The own-render set's fit bench tables (markdown)."""
+    """docs/capture.md's fit bench tables for the own-render set (markdown)."""
     rows = [r for r in rows if r.get("set", "own") == "own"]
     if not rows:
         return ""

@@ -139,10 +139,11 @@ def fresnel(cos_t, eta):
 # procedural plies and fibres
 
 
-def shadowing(p: Shading, uv, cos_light):
-    """G_p(x, ω_l) · G_f(x): darkening in the grooves between plies and between fibres.
+def grooves(p: Shading, uv):
+    """How deep in the groove between plies and between fibres a point lies, each in [0, 1].
 
     ``uv``: tube texture coordinates (u along the yarn in circumferences, v around it).
+    Returns ``(groove_p, groove_f)``: 1 in the middle of a groove, 0 on a strand's crest.
     """
     tan_p = math.tan(math.radians(PLY_TWIST_DEG))
     tan_f = math.tan(math.radians(FIBER_TWIST_DEG))
@@ -150,10 +151,24 @@ def shadowing(p: Shading, uv, cos_light):
     phase_f = p.fibers * (uv.y - uv.x * tan_f)
     groove_p = dr.power(0.5 + 0.5 * dr.cos(2.0 * dr.pi * phase_p), PLY_GROOVE_POWER)
     groove_f = dr.power(0.5 + 0.5 * dr.cos(2.0 * dr.pi * phase_f), FIBER_GROOVE_POWER)
+    return groove_p, groove_f
+
+
+def groove_shadowing(p: Shading, groove_p, groove_f, cos_light):
+    """G_p(x, ω_l) · G_f(x) from the groove depths of :func:`grooves` (or their averages over
+    a texel, as the surface model bakes them)."""
     grazing = 1.0 - 0.5 * dr.clip(dr.abs(cos_light), 0.0, 1.0)
     g_p = 1.0 - dr.clip(p.ply_shadow, 0.0, 1.0) * groove_p * grazing
     g_f = 1.0 - dr.clip(p.fiber_shadow, 0.0, 1.0) * groove_f
     return g_p * g_f
+
+
+def shadowing(p: Shading, uv, cos_light):
+    """G_p(x, ω_l) · G_f(x): darkening in the grooves between plies and between fibres.
+
+    ``uv``: tube texture coordinates (u along the yarn in circumferences, v around it).
+    """
+    return groove_shadowing(p, *grooves(p, uv), cos_light)
 
 
 # --------------------------------------------------------------------------------------------
@@ -194,7 +209,7 @@ def _two_sided(wv, wl):
     return wv, wl
 
 
-def eval_bysdf(p: Shading, body_reflection, body_subsurface, uv, wv, wl):
+def eval_bysdf(p: Shading, body_reflection, body_subsurface, uv, wv, wl, *, groove=None):
     """BYSDF × |cos θ_l| (Color3f) for view ``wv`` and light ``wl`` in the local frame.
 
     Parameters
@@ -202,8 +217,11 @@ def eval_bysdf(p: Shading, body_reflection, body_subsurface, uv, wv, wl):
     p : Shading
     body_reflection, body_subsurface : Color3f
         R^B and S^B of the yarn hit (warp or weft; a texture lookup already done).
-    uv : Point2f, tube texture coordinates (for plies and fibres)
+    uv : Point2f, tube texture coordinates (for plies and fibres); unused when ``groove`` is given
     wv, wl : Vector3f, unit directions towards the viewer and the light
+    groove : (groove_p, groove_f), optional
+        Groove depths already known (:func:`grooves`, or a baked map's texel average) in
+        place of their procedural value at ``uv``.
     """
     wv, wl = _two_sided(wv, wl)
     cv = dr.clip(wv.z, 0.0, 1.0)
@@ -222,7 +240,7 @@ def eval_bysdf(p: Shading, body_reflection, body_subsurface, uv, wv, wl):
     spec_t = w.t_s * (1.0 - f_h) * lobe
     exit_t = (1.0 - w.t_s) * w.t_y * (1.0 - f_hy) * lobe_y
 
-    g = shadowing(p, uv, cl)
+    g = shadowing(p, uv, cl) if groove is None else groove_shadowing(p, *groove, cl)
     acl = dr.abs(cl)
     m_r = dr.clip(p.coefficient, 0.0, 1.0)
     ls = acl / (2.0 * dr.pi * dr.maximum(cv + acl, EPS))
@@ -397,19 +415,20 @@ def register() -> None:
 register()
 
 
-def albedo_bysdf(p: Shading, body_reflection, body_subsurface, uv, cos_v):
+def albedo_bysdf(p: Shading, body_reflection, body_subsurface, uv, cos_v, *, groove=None):
     """Directional albedo (reflection + transmission) for a view at ``cos_v``: the radiance
     returned under a uniform white ambient light of radiance 1, for the ambient part of §6.4.
 
     Each lobe contributes its energy share (the GGX lobes' own losses are neglected); the
-    Lommel–Seeliger albedo is ``1 - c ln(1 + 1/c)``.
+    Lommel–Seeliger albedo is ``1 - c ln(1 + 1/c)``. ``groove`` as in :func:`eval_bysdf`.
     """
     cv = dr.clip(dr.abs(cos_v), EPS, 1.0)
     w = lobe_weights(p, cv)
     m_r = dr.clip(p.coefficient, 0.0, 1.0)
     a_ls = 1.0 - cv * dr.log(1.0 + 1.0 / cv)
     spec = w.fresnel_v * dr.clip(p.reflection, 0.0, 1.0) + (1.0 - w.fresnel_v) * (w.t_s + (1.0 - w.t_s) * w.t_y)
-    body = w.body * shadowing(p, uv, 1.0) * (
+    g = shadowing(p, uv, 1.0) if groove is None else groove_shadowing(p, *groove, 1.0)
+    body = w.body * g * (
         m_r * dr.clip(body_reflection, 0.0, 1.0) * 0.5 * (a_ls + 1.0)
         + (1.0 - m_r) * dr.clip(body_subsurface, 0.0, 1.0) * dr.exp(-dr.maximum(p.body_attenuation, 0.0) * w.chord))
     return mi.Color3f(spec) + body

@@ -35,6 +35,13 @@ R2 = 1.32471795724474602596  # plastic number: the R2 low-discrepancy sequence's
 AO_FLOOR = 0.35  # ambient seen by the lowest yarn points relative to the highest
 
 
+def ambient_occlusion(z, z_range: tuple[float, float]):
+    """The share of the ambient light a yarn point at height ``z`` sees: 1 on the highest
+    yarn tops, AO_FLOOR at the lowest points (``z_range``, world units), linear between."""
+    z_lo, z_hi = z_range
+    return AO_FLOOR + (1.0 - AO_FLOOR) * dr.clip((z - z_lo) / (z_hi - z_lo), 0.0, 1.0)
+
+
 def _frac(x):
     return x - dr.floor(x)
 
@@ -136,8 +143,7 @@ def geometry_pass(fs: FabricScene, *, spp: int, seed: int) -> GBuffer:
                 visible = same_side & ~front_blocked
             wl.append(si.to_local(d))
             lit.append(hit & visible)
-        z_lo, z_hi = fs.z_range
-        ao = AO_FLOOR + (1.0 - AO_FLOOR) * dr.clip((si.p.z - z_lo) / (z_hi - z_lo), 0.0, 1.0)
+        ao = ambient_occlusion(si.p.z, fs.z_range)
         fabric_uv = None
         if fs.textures:
             n_e, n_a = fs.fabric.shape

@@ -167,7 +167,8 @@ def make_frame(pattern_shape: tuple[int, int], view: View) -> Frame:
     return Frame(center=(cx, cy), extent=(width, height), shape=shape, rows=rows, cols=cols, eye_height=eye)
 
 
-def _mesh(name: str, tubes: TubeMesh, bsdf_obj):
+def yarn_mesh(name: str, tubes: TubeMesh, bsdf_obj):
+    """A ``mi.Mesh`` of tubes (positions, normals, texture coordinates) carrying ``bsdf_obj``."""
     props = mi.Properties()
     props["bsdf"] = bsdf_obj
     mesh = mi.Mesh(name, tubes.positions.shape[0], tubes.faces.shape[0], props=props,
@@ -181,7 +182,7 @@ def _mesh(name: str, tubes: TubeMesh, bsdf_obj):
     return mesh
 
 
-def _texture(path: str):
+def body_texture(path: str):
     """A body-colour texture (linear RGB, wrapped over one repeat of the fabric) and its mean."""
     from ..photo import load_photo
 
@@ -248,7 +249,9 @@ class FabricScene:
         return _bysdf.Shading(**{sk: self.values[fk] for sk, fk in SHADING_KEYS.items()})
 
 
-def _initial_values(fabric: Fabric) -> dict:
+def parameter_store(fabric: Fabric) -> dict:
+    """Dr.Jit values (opaque) of every shading key and yarn colour of ``fabric``, by dotted key
+    (a body-colour texture is left out: :func:`body_texture` loads it)."""
     values = {}
     for key in list(SHADING_KEYS.values()) + list(YARN_KEYS):
         v = fabric.get(key)
@@ -267,6 +270,12 @@ def _bind(plugin, values: dict, yarn: str) -> None:
             plugin.values[key] = values[f"{yarn}.{key}"]
 
 
+def height_range(fabric: Fabric) -> tuple[float, float]:
+    """(lowest, highest) z a yarn surface of ``fabric`` can reach, world units."""
+    top = crossover_height(fabric.warp.radius, fabric.weft.radius) / 2 + max(fabric.warp.radius, fabric.weft.radius)
+    return (-top, top)
+
+
 def _rebuild(fs: FabricScene) -> None:
     fabric, frame = fs.fabric, fs.frame
     wefts, warps = fabric_meshes(fabric.pattern, r_warp=fabric.warp.radius, r_weft=fabric.weft.radius,
@@ -276,12 +285,11 @@ def _rebuild(fs: FabricScene) -> None:
         plugin = _bysdf.BYSDF(mi.Properties())
         _bind(plugin, fs.values, yarn)
         plugins.append(plugin)
-    weft_mesh = _mesh("wefts", wefts, plugins[0])
-    warp_mesh = _mesh("warps", warps, plugins[1])
+    weft_mesh = yarn_mesh("wefts", wefts, plugins[0])
+    warp_mesh = yarn_mesh("warps", warps, plugins[1])
     fs.scene = mi.load_dict({"type": "scene", "wefts": weft_mesh, "warps": warp_mesh})
     fs.warp_shape = mi.ShapePtr(warp_mesh)
-    top = crossover_height(fabric.warp.radius, fabric.weft.radius) / 2 + max(fabric.warp.radius, fabric.weft.radius)
-    fs.z_range = (-top, top)
+    fs.z_range = height_range(fabric)
     fs.cache.clear()
 
 
@@ -290,11 +298,11 @@ def build_scene(fabric: Fabric, view: View | None = None, *, light: str | LightR
     view = view or View()
     rig = light if isinstance(light, LightRig) else light_rig(light)
     frame = make_frame(fabric.shape, view)
-    fs = FabricScene(fabric=fabric, view=view, rig=rig, frame=frame, scene=None, values=_initial_values(fabric))
+    fs = FabricScene(fabric=fabric, view=view, rig=rig, frame=frame, scene=None, values=parameter_store(fabric))
     for yarn in ("warp", "weft"):
         tex = fabric.get(f"{yarn}.body_reflection")
         if isinstance(tex, str):
-            fs.textures[f"{yarn}.body_reflection"], mean = _texture(tex)
+            fs.textures[f"{yarn}.body_reflection"], mean = body_texture(tex)
             fs.values[f"{yarn}.body_reflection"] = mi.Color3f(*mean)  # for lobe weights and plugins
     _rebuild(fs)
     return fs

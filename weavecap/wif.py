@@ -1,0 +1,495 @@
+"""Weaving drafts in and out: the pattern as a WIF file (Weaving Information File 1.1).
+
+WIF is the text format weaving software exchanges drafts in (Fiberworks, WeaveIt, AdaCAD,
+ThunderLoom, loom controllers). Parsing, validation and the file text are the maintained
+library ``dtx-to-wif``'s (:func:`dtx_to_wif.read_wif`, :class:`dtx_to_wif.PatternData`,
+:func:`dtx_to_wif.write_wif`). What this module adds, because the library does not do it:
+
+- the drawdown (which warp end is up on which pick) from threading × tie-up × treadling or
+  threading × liftplan, with treadles that lift nothing allowed (the library's
+  ``make_liftplan`` raises ``KeyError`` on them, e.g. on ``treadles_with_defaults.wif``) and
+  sinking sheds;
+- weavecap's convention on top of it and the reduction to the minimum repeat;
+- the factoring of a pattern into a draft: distinct columns → shafts (threading), distinct
+  rows → treadles (tie-up and treadling), and the liftplan;
+- errors that name the WIF section to fix (the library raises bare ``RuntimeError`` /
+  ``ValueError`` without saying where).
+
+Conventions. WIF numbers ends (warp threads) and picks (weft threads) from 1; end ``e`` is
+weavecap's warp column ``e - 1`` (left to right) and pick ``p`` its weft row ``p - 1`` (top to
+bottom), so a pattern written and read back is the same array. With ``Rising Shed=true`` (the
+usual jack-loom and dobby case) the tie-up and liftplan list the shafts that *rise*: a warp end
+on a raised shaft lies over the weft on that pick, seen from the face that is up on the loom.
+weavecap's ``pattern[i, j] = 1`` means weft ``i`` over warp ``j``, so
+
+    pattern[p - 1, e - 1] = 1 - raised(p, e)          (rising shed)
+    pattern[p - 1, e - 1] = sunk(p, e)                (sinking shed: the listed shafts sink)
+
+An end on no shaft is never raised (rising shed) or never sunk (sinking shed).
+"""
+
+from __future__ import annotations
+
+import configparser
+import io
+import os
+import re
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputError
+from .estimate.weave_name import minimal_repeat
+
+#: The largest repeat a weavecap fabric holds, per side (``params.schema.json``'s pattern).
+MAX_REPEAT = 64
+
+#: Ends or picks a WIF file may draft before it is refused unread (a drawdown this size is
+#: 64 MiB of cells; real drafts are a few hundred to a few thousand threads).
+MAX_THREADS = 8192
+
+#: Files larger than this are not WIF drafts (the largest real drafts are a few hundred KiB).
+MAX_BYTES = 16 * 2**20
+
+#: A pattern reduced to at most this many shafts and treadles is also written as threading +
+#: tie-up + treadling, the form a floor loom is set up from (16 shafts is the largest common
+#: floor loom); beyond it the liftplan alone (a dobby or computer-assisted loom's form).
+TREADLE_LIMIT = 16
+
+#: How each lifting section's lines look, for messages.
+_LINE_FORMS = {
+    "threading": "END=SHAFT[,SHAFT...]",
+    "tieup": "TREADLE=SHAFT[,SHAFT...]",
+    "treadling": "PICK=TREADLE[,TREADLE...]",
+    "liftplan": "PICK=SHAFT[,SHAFT...]",
+    "color_table": "INDEX=R,G,B",
+    "warp_colors": "END=COLOR-INDEX",
+    "weft_colors": "PICK=COLOR-INDEX",
+    "warp_spacing": "END=NUMBER",
+    "weft_spacing": "PICK=NUMBER",
+    "warp_thickness": "END=NUMBER",
+    "weft_thickness": "PICK=NUMBER",
+}
+
+#: Typed keys of the header sections, as the library reads them: key → the form of its value.
+_HEADER_KEYS = {
+    "warp": {"threads": "INTEGER", "spacing": "NUMBER", "thickness": "NUMBER"},
+    "weft": {"threads": "INTEGER", "spacing": "NUMBER", "thickness": "NUMBER"},
+    "weaving": {"shafts": "INTEGER", "treadles": "INTEGER", "rising shed": "true|false"},
+}
+
+
+def _wif_bool(value: str) -> bool:
+    from dtx_to_wif.wif_reader import WifBoolDict
+
+    return WifBoolDict[value.strip().lower()]
+
+
+_VALUE_PARSERS = {"INTEGER": int, "NUMBER": float, "true|false": _wif_bool}
+
+
+@dataclass(frozen=True)
+class Draft:
+    """A weaving draft read from a WIF file.
+
+    Attributes
+    ----------
+    drawdown : numpy.ndarray
+        ``(picks, ends)`` uint8 as drafted, in weavecap's convention (1 = weft over warp).
+    pattern : numpy.ndarray
+        ``(wefts, warps)`` uint8, the drawdown's minimum repeat (at most 64 × 64).
+    title : str
+        ``[TEXT] Title``, or the file name.
+    lifting : str
+        The sections the drawdown came from: ``"[LIFTPLAN]"`` or ``"[TIEUP] × [TREADLING]"``.
+    """
+
+    drawdown: np.ndarray
+    pattern: np.ndarray
+    title: str
+    lifting: str
+
+
+# ---------------------------------------------------------------------------------------------
+# reading
+
+
+def _refuse(path: str, section: str, message: str) -> InputError:
+    where = f"[{section.upper().replace('_', ' ')}]" if section else ""
+    return InputError(f"{path}: {where + ': ' if where else ''}{message}")
+
+
+def _wif_text(path: str) -> str:
+    """The file's text from its ``[WIF]`` line on, prepared for the library's ConfigParser."""
+    p = Path(path)
+    try:
+        size = p.stat().st_size
+        if size > MAX_BYTES:
+            raise InputError(f"{path}: {size} bytes is too large for a WIF draft (at most {MAX_BYTES} bytes)")
+        data = p.read_bytes()
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read the WIF file ({exc.strerror}); check the path") from None
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError:
+        text = data.decode("latin-1")  # older Windows weaving programs write ANSI text
+    lines = text.splitlines()
+    start = next((i for i, line in enumerate(lines) if line.strip().lower() == "[wif]"), None)
+    if start is None:  # checked here: the library's reader loops forever on a file without one
+        raise _refuse(path, "wif", "not a WIF file: no [WIF] section; a WIF draft starts with a [WIF] line "
+                      "(save or export the draft as WIF)")
+    out = []
+    for line in lines[start:]:
+        header = re.fullmatch(r"\s*\[(.*)\]\s*", line)
+        if header and not header.group(1).startswith("PRIVATE"):
+            # the library's own section names; it renames others by re-setting their values,
+            # which interpolates them twice
+            line = f"[{header.group(1).strip().lower().replace(' ', '_')}]"
+        out.append(line)
+    # WIF values are literal; the library's ConfigParser interpolates '%' (a title "50% wool"
+    # would fail), so escape it
+    return "\n".join(out).replace("%", "%%") + "\n"
+
+
+def _raw_sections(text: str) -> configparser.ConfigParser | None:
+    """The prepared text as the library's ConfigParser sees it, or None if it cannot parse it."""
+    raw = configparser.ConfigParser(allow_no_value=True, strict=False)
+    try:
+        raw.read_string(text)
+    except configparser.Error:
+        return None
+    return raw
+
+
+def _bad_line(raw: configparser.ConfigParser) -> tuple[str, str, str] | None:
+    """The first line the library cannot parse: (section, line, the form it should have)."""
+    from dtx_to_wif.wif_reader import section_dispatcher
+
+    for name in raw.sections():
+        key = name.lower().replace(" ", "_")
+        parse = section_dispatcher.get(key)
+        typed = _HEADER_KEYS.get(key, {})
+        for option, value in raw.items(name, raw=True):
+            try:
+                if parse is not None:
+                    parse({option: value})
+                elif option in typed and value is not None and value.strip():
+                    _VALUE_PARSERS[typed[option]](value)
+            except (ValueError, TypeError, AttributeError, KeyError, RuntimeError):
+                form = _LINE_FORMS.get(key) or f"{option}={typed[option]}"
+                return key, f"{option}={value}" if value is not None else option, form
+    return None
+
+
+def _first_line(raw: configparser.ConfigParser | None, section: str, bad) -> str:
+    """`` (line KEY=VALUE)`` of the first line of ``section`` whose numbers ``bad`` flags, or ``""``."""
+    if raw is None or not raw.has_section(section):
+        return ""
+    for key, value in raw.items(section, raw=True):
+        try:
+            numbers = [int(v) for v in (value or "").split(",") if v.strip()]
+        except ValueError:
+            continue
+        if numbers and bad(numbers):
+            return f" (line {key}={value})"
+    return ""
+
+
+def _filled(raw: configparser.ConfigParser | None, section: str) -> bool:
+    return raw is not None and raw.has_section(section) and any(
+        (v or "").strip() not in ("", "0") for _, v in raw.items(section, raw=True))
+
+
+def _library_error(message: str, raw: configparser.ConfigParser | None) -> tuple[str, str]:
+    """The section a ``dtx-to-wif`` error is about, and what to tell the user (with the fix)."""
+    low = message.lower()
+    if "must specify non-empty liftplan" in low:
+        if _filled(raw, "treadling") and not _filled(raw, "tieup"):
+            return "tieup", ("missing or empty: [TREADLING] names treadles but no tie-up says which shafts they "
+                             "lift; add a [TIEUP] (TREADLE=SHAFT,...), or give a [LIFTPLAN] instead")
+        if _filled(raw, "tieup") and not _filled(raw, "treadling"):
+            return "treadling", ("missing or empty: there is a [TIEUP] but no treadling says which treadles each "
+                                 "pick uses; add a [TREADLING] (PICK=TREADLE,...), or give a [LIFTPLAN] instead")
+        return "liftplan", ("the draft has no drawdown: no pick lifts a shaft (no [LIFTPLAN], and no [TIEUP] with "
+                            "[TREADLING]); add a [LIFTPLAN] (PICK=SHAFT,...) or a [TIEUP] and a [TREADLING]")
+    if "max() arg is an empty" in low:  # the library's first max() is over the threading
+        return "threading", "missing or empty: no end is threaded on a shaft; add a [THREADING] (END=SHAFT,...)"
+    m = re.search(r"more treadles in treadling than in tieup: (\d+) > (\d+)", message)
+    if m:
+        line = _first_line(raw, "treadling", lambda t: max(t) > int(m[2]))
+        return "treadling", (f"a pick uses treadle {m[1]}{line} but the draft has {m[2]} treadles ([WEAVING] "
+                             "Treadles, [TIEUP]); tie that treadle up or use one of treadles 1 to " + m[2])
+    m = re.search(r"(warp|weft)_colors=.*(>|<) (\d+)", message)
+    if m:
+        top = int(m[3])
+        line = _first_line(raw, f"{m[1]}_colors", (lambda c: max(c) > top) if m[2] == ">" else (lambda c: min(c) < 1))
+        return f"{m[1]}_colors", (f"a colour index{line} is not an entry of [COLOR TABLE]; use indices 1 to "
+                                  f"{top if m[2] == '>' else 'the number of colours'}")
+    m = re.search(r"(warp|weft)\.color (\S+)", message)
+    if m:
+        return m[1], (f"Color={m[2]} is not an entry of [COLOR TABLE]; give the index of one, or a colour for "
+                      f"every thread in [{m[1].upper()} COLORS]")
+    if re.search(r"colou?r table|parse color", low):
+        return "color_table", f"{message.rstrip('; ')}; each line is INDEX=R,G,B within [COLOR PALETTE] Range"
+    if re.search(r"colou?r range|color palette", low):
+        return "color_palette", f"{message.rstrip('; ')}; give Range=MIN,MAX (e.g. Range=0,255)"
+    return "", f"{message.rstrip('; ')}; fix the draft (or save it again from the weaving program)"
+
+
+def _parse(path: str, text: str):
+    """The library's :class:`dtx_to_wif.PatternData` of a prepared WIF text; InputError naming
+    the section to fix."""
+    from dtx_to_wif import read_wif
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            return read_wif(io.StringIO(text), os.path.basename(path))
+        except configparser.Error as exc:
+            lines = getattr(exc, "errors", None)
+            detail = f" (line {lines[0][0]}: {lines[0][1].strip()})" if lines else ""
+            raise _refuse(path, getattr(exc, "section", "") or "", f"malformed{detail}: {exc.message.splitlines()[0]}; "
+                          "every line is KEY=VALUE under a [SECTION] header") from None
+        except (ValueError, TypeError, AttributeError, KeyError, RuntimeError) as exc:
+            raw = _raw_sections(text)
+            parse_error = isinstance(exc, (ValueError, TypeError, AttributeError))
+            bad = _bad_line(raw) if raw is not None and parse_error else None
+            if bad is not None:
+                section, line, form = bad
+                raise _refuse(path, section, f"cannot read the line {line!r}; its lines look like {form}") from None
+            # the library's KeyError on an unusable default colour comes after a warning that says why
+            message = str(caught[-1].message) if isinstance(exc, KeyError) and caught else str(exc)
+            raise _refuse(path, *_library_error(message, raw)) from None
+
+
+def _check_numbers(path: str, data) -> tuple[int, int]:
+    """Thread, shaft and treadle numbers the library lets through but a drawdown cannot use;
+    the numbers of ends and picks."""
+    for section, numbers, kind in (("threading", data.threading, "shaft"), ("tieup", data.tieup, "shaft"),
+                                   ("treadling", data.treadling, "treadle"), ("liftplan", data.liftplan, "shaft")):
+        for key, values in numbers.items():
+            if key < 1 or min(values) < 0:
+                raise _refuse(path, section, f"line {key}={','.join(map(str, sorted(values)))}: numbers start at 1 "
+                              f"(a {kind} of 0 means none); negative numbers are not allowed")
+    ends = max([data.warp.threads, *data.threading])
+    lift_keys = data.liftplan if data.liftplan else data.treadling
+    picks = max([data.weft.threads, *lift_keys])
+    for section, count, what in (("warp", ends, "ends"), ("weft", picks, "picks")):
+        if count > MAX_THREADS:
+            raise _refuse(path, section, f"{count} {what} is more than weavecap reads (at most {MAX_THREADS}); "
+                          "give one or a few repeats of the draft")
+    return ends, picks
+
+
+def _lifts(data, picks: int) -> dict[str, list[set[int]]]:
+    """The shafts each pick moves (raised, or sunk in a sinking shed), from the liftplan and
+    from tie-up × treadling, whichever the draft has (1-based shafts, 0 dropped)."""
+    out = {}
+    if data.liftplan:
+        out["[LIFTPLAN]"] = [data.liftplan.get(p, set()) - {0} for p in range(1, picks + 1)]
+    if data.tieup and data.treadling:
+        out["[TIEUP] × [TREADLING]"] = [
+            set().union(*(data.tieup.get(t, set()) for t in data.treadling.get(p, set()))) - {0}
+            for p in range(1, picks + 1)]
+    return out
+
+
+def _drawdown(threading: list[set[int]], lifts: list[set[int]], rising: bool) -> np.ndarray:
+    """``(picks, ends)`` uint8 in weavecap's convention from per-end shafts and per-pick lifts."""
+    shafts = sorted(set().union(*threading, *lifts) - {0})
+    index = {s: k for k, s in enumerate(shafts)}
+    threaded = np.zeros((len(threading), len(shafts)), dtype=bool)
+    for e, on in enumerate(threading):
+        threaded[e, [index[s] for s in on if s]] = True
+    moved = np.zeros((len(lifts), len(shafts)), dtype=bool)
+    for p, on in enumerate(lifts):
+        moved[p, [index[s] for s in on]] = True
+    moves = (moved.astype(np.int32) @ threaded.T.astype(np.int32)) > 0  # end e moves on pick p
+    return (~moves if rising else moves).astype(np.uint8)
+
+
+def _period(x: np.ndarray, axis: int) -> int:
+    """Smallest period of a drawdown along ``axis`` that it holds at least twice
+    (``x[k:] == x[:-k]``), or its length: a large draft cut mid-repeat."""
+    n = x.shape[axis]
+    for k in range(1, n // 2 + 1):
+        if np.array_equal(np.take(x, range(k, n), axis=axis), np.take(x, range(n - k), axis=axis)):
+            return k
+    return n
+
+
+def repeat_of(drawdown: np.ndarray, *, path: str = "", sections: str = "[THREADING] and [LIFTPLAN]") -> np.ndarray:
+    """The minimum repeat of a drawdown, as weavecap tiles it.
+
+    A drawdown of at most 64 × 64 is one or more whole repeats and is reduced cyclically
+    (:func:`weavecap.estimate.weave_name.minimal_repeat`), so that a pattern written as WIF
+    reads back exactly. A larger one is first reduced the same way; along a side still over
+    64 it is taken as a draft cut mid-repeat, and its period (drafted at least twice) is used.
+
+    Raises
+    ------
+    InputError
+        The repeat is larger than 64 × 64 (the message names ``sections``).
+    """
+    p = minimal_repeat(drawdown)
+    for axis in (0, 1):
+        if p.shape[axis] > MAX_REPEAT:
+            p = np.take(p, range(_period(p, axis)), axis=axis)
+    if max(p.shape) > MAX_REPEAT:
+        raise InputError(f"{path}: {sections}: the drawdown's repeat is {p.shape[0]} picks × {p.shape[1]} ends; "
+                         f"weavecap fabrics repeat over at most {MAX_REPEAT} × {MAX_REPEAT} yarns "
+                         "(give a draft of one repeat)")
+    return p
+
+
+def read_wif(path: str | os.PathLike) -> Draft:
+    """Read a WIF draft: its drawdown in weavecap's convention and its minimum repeat.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A ``.wif`` file (WIF 1.0 or 1.1; UTF-8 or Latin-1 text).
+
+    Returns
+    -------
+    Draft
+
+    Raises
+    ------
+    InputError
+        (exit 2) The file cannot be read, is malformed, has no drawdown, has a liftplan and a
+        treadling that disagree, or repeats over more than 64 × 64; the message names the
+        section to fix, e.g. ``[TIEUP]``.
+    """
+    name = os.fspath(path)
+    data = _parse(name, _wif_text(name))
+    ends, picks = _check_numbers(name, data)
+    threading = [data.threading.get(e, set()) for e in range(1, ends + 1)]
+    drawdowns = {how: _drawdown(threading, lifts, data.is_rising_shed) for how, lifts in _lifts(data, picks).items()}
+    (lifting, drawdown), *others = drawdowns.items()
+    for how, other in others:
+        if not np.array_equal(other, drawdown):
+            pick = int(np.flatnonzero((other != drawdown).any(axis=1))[0]) + 1
+            raise InputError(f"{name}: [LIFTPLAN] and [TIEUP] × [TREADLING] weave different cloth from pick {pick} "
+                             "on; keep one of them (or make them agree)")
+    pattern = repeat_of(drawdown, path=name, sections=f"[THREADING] and {lifting}")
+    return Draft(drawdown=drawdown, pattern=pattern, title=data.name if data.name != "?" else Path(name).name,
+                 lifting=lifting)
+
+
+# ---------------------------------------------------------------------------------------------
+# writing
+
+
+def _first_seen(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Distinct rows of ``rows`` in order of first appearance, and each row's index among them."""
+    _, first, inverse = np.unique(rows, axis=0, return_index=True, return_inverse=True)
+    order = np.argsort(first)  # np.unique sorts lexicographically; renumber by first appearance
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    return rows[np.sort(first)], rank[inverse.reshape(-1)]
+
+
+def _srgb8(rgb) -> tuple[int, int, int]:
+    from .photo import linear_to_srgb
+
+    c = np.rint(linear_to_srgb(np.clip(np.asarray(rgb, dtype=np.float64), 0.0, 1.0)) * 255.0)
+    return (int(c[0]), int(c[1]), int(c[2]))
+
+
+def body_colour(colour) -> tuple[float, float, float]:
+    """A yarn's body colour as one linear RGB: the colour itself, or a texture's mean."""
+    if isinstance(colour, str):
+        from .photo import load_photo
+
+        return tuple(float(c) for c in np.clip(load_photo(colour).rgb, 0.0, 1.0).reshape(-1, 3).mean(axis=0))
+    return tuple(float(c) for c in colour)
+
+
+def draft_of(pattern: np.ndarray, *, warp_rgb=(1.0, 1.0, 1.0), weft_rgb=(0.0, 0.0, 0.0),
+             pitch_mm: float | None = None, title: str = "weavecap", treadle_limit: int = TREADLE_LIMIT):
+    """The draft of a pattern, as ``dtx-to-wif``'s :class:`~dtx_to_wif.PatternData`.
+
+    Parameters
+    ----------
+    pattern : numpy.ndarray
+        ``(wefts, warps)`` 0/1, 1 = weft over warp (weavecap's convention).
+    warp_rgb, weft_rgb : RGB
+        Linear RGB in [0, 1] of the warp and the weft; written sRGB-encoded (0–255), as WIF's
+        colour table holds them.
+    pitch_mm : float, optional
+        Yarn spacing (``scale.pitch_mm``), written in centimetres (WIF keeps 3 decimals: 0.01 mm).
+    title : str
+        ``[TEXT] Title``.
+    treadle_limit : int
+        Also write threading + tie-up + treadling when the pattern needs at most this many
+        shafts and treadles; the liftplan is always written.
+
+    Returns
+    -------
+    dtx_to_wif.PatternData
+        Rising shed. Shafts are the pattern's distinct columns and treadles its distinct rows,
+        numbered in order of first appearance (a straight twill threads 1, 2, 3, ...). A pattern
+        whose warps never rise (all ones) is written as a sinking shed, since WIF needs a
+        liftplan that moves a shaft.
+    """
+    from dtx_to_wif import PatternData, WarpWeftData
+
+    from . import __version__
+
+    p = np.asarray(pattern, dtype=np.uint8)
+    rising = bool((p == 0).any())
+    moves = (1 - p) if rising else p  # (wefts, warps): warp end moves (rises / sinks) on this pick
+    columns, shaft_of_end = _first_seen(moves.T)  # (shafts, wefts), (warps,)
+    shaft_moves = columns.T  # (wefts, shafts)
+    threading = {e + 1: {int(s) + 1} for e, s in enumerate(shaft_of_end)}
+    liftplan = {i + 1: {int(s) + 1 for s in np.flatnonzero(row)} for i, row in enumerate(shaft_moves)}
+    treadles, treadle_of_pick = _first_seen(shaft_moves)
+    used = treadles.any(axis=1)  # a pick that moves nothing needs no treadle
+    number = np.cumsum(used)  # treadle numbers 1.. over the treadles that move something
+    tieup, treadling = {}, {}
+    if len(columns) <= treadle_limit and int(used.sum()) <= treadle_limit:
+        tieup = {int(number[t]): {int(s) + 1 for s in np.flatnonzero(row)} for t, row in enumerate(treadles) if used[t]}
+        treadling = {i + 1: {int(number[t])} for i, t in enumerate(treadle_of_pick) if used[t]}
+    spacing = {} if pitch_mm is None else {"spacing": float(pitch_mm) / 10.0, "units": "centimeters"}
+    return PatternData(
+        name=title, threading=threading, tieup=tieup, treadling=treadling, liftplan=liftplan,
+        color_table={1: _srgb8(warp_rgb), 2: _srgb8(weft_rgb)}, color_range=(0, 255),
+        warp=WarpWeftData(threads=p.shape[1], color=1, **spacing),
+        weft=WarpWeftData(threads=p.shape[0], color=2, **spacing),
+        is_rising_shed=rising, source_program="weavecap", source_version=__version__,
+        num_shafts=len(columns), num_treadles=int(used.sum()) if tieup else len(columns))
+
+
+def wif_text(fabric, *, title: str | None = None) -> str:
+    """The WIF 1.1 text of a fabric's pattern, yarn colours and spacing.
+
+    Parameters
+    ----------
+    fabric : weavecap.params.Fabric
+        Its pattern; its warp and weft body reflection colours (R^B, a texture's mean) as the
+        WIF warp and weft colours; ``scale.pitch_mm`` as the thread spacing, when known.
+    title : str, optional
+        ``[TEXT] Title``; the weave's name by default.
+    """
+    from dtx_to_wif import write_wif
+
+    from .estimate.weave_name import weave_name
+
+    pitch = (fabric.scale or {}).get("pitch_mm")
+    data = draft_of(fabric.pattern, warp_rgb=body_colour(fabric.warp.body_reflection),
+                    weft_rgb=body_colour(fabric.weft.body_reflection), pitch_mm=pitch,
+                    title=title or f"weavecap {weave_name(fabric.pattern)}")
+    out = io.StringIO()
+    write_wif(out, data)
+    return out.getvalue()
+
+
+def save_wif(fabric, path: str | os.PathLike, *, force: bool = False, title: str | None = None) -> None:
+    """Write :func:`wif_text` to ``path`` atomically; refuse to overwrite without ``force``."""
+    from .io import atomic_write_text, refuse_overwrite
+
+    refuse_overwrite(path, force=force)
+    atomic_write_text(path, wif_text(fabric, title=title))
