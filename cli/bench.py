@@ -1,4 +1,5 @@
-"""``weavecap bench``: measured speed and accuracy (docs/performance.md's and docs/capture.md's tables)."""
+"""``weavecap bench``: measured speed and accuracy (the tables of docs/performance.md, docs/capture.md
+and docs/render.md)."""
 
 from __future__ import annotations
 
@@ -9,15 +10,20 @@ import click
 
 
 @click.command(context_settings={"max_content_width": 100})
-@click.option("--quick", is_flag=True, help="A smaller fit bench: 3 photos, draft and normal presets (~2 min).")
-@click.option("--render/--no-render", "do_render", default=True, show_default=True,
-              help="Measure the forward model (cold and warm renders, fit steps, memory).")
-@click.option("--fit/--no-fit", "do_fit", default=True, show_default=True,
-              help="Fit the synthetic bench photos at each quality preset.")
+@click.option("--quick", is_flag=True, help="Smaller benches: 3 fit photos (draft and normal presets), 1-2 render cases.")
+@click.option("--model/--no-model", "do_model", default=None,
+              help="The forward model: cold and warm renders, fit steps, memory.")
+@click.option("--fit/--no-fit", "do_fit", default=None, help="Fit the synthetic bench photos at each quality preset.")
+@click.option("--render/--no-render", "do_render", default=None,
+              help="The output renderers (weavecap render): the reference against Mitsuba's path + diffuse on the "
+                   "towel and the fixture meshes, cold and warm, memory; the flat swatch against synth.")
 @click.option("-o", "--output", "out", type=click.Path(file_okay=False, path_type=Path), default=Path("bench-out"),
-              show_default=True, help="Folder for the photos, results.json and the speed-against-error plot.")
-def bench(quick, do_render, do_fit, out):
+              show_default=True, help="Folder for the photos, results.json, render.json and the speed-against-error plot.")
+def bench(quick, do_model, do_fit, do_render, out):
     """Measure speed and accuracy on this machine.
+
+    Sections: --model (the forward model), --fit (the fit bench), --render (the output
+    renderers). Naming sections runs only those; --no-X runs all but X; neither runs all.
 
     Forward model: each case runs in a fresh process with an empty kernel cache, so "cold"
     includes compiling the kernels and "warm" is the median of later calls.
@@ -27,30 +33,47 @@ def bench(quick, do_render, do_fit, out):
     end to end at each preset and compared with the truth. Writes OUT/results.json and
     OUT/speed_vs_error.png. The full fit bench takes about 15 minutes on a 2-core machine.
 
+    Render: each renderer in a fresh process with an empty kernel cache, side by side on the
+    same mesh, camera, lights, size (1280x720), samples (64 spp) and depth (8); the ratio is
+    the reference's time over Mitsuba's path + diffuse. Writes OUT/render.json. About 15
+    minutes on a 2-core machine.
+
     \b
     Examples:
       weavecap bench --quick
+      weavecap bench --render
       weavecap bench --no-fit
       weavecap bench -o bench-out/ > performance.md
     """
     from weavecap.io import atomic_write_text
 
-    if do_render:
+    chosen = {"model": do_model, "fit": do_fit, "render": do_render}
+    named = [k for k, v in chosen.items() if v]
+    run = set(named) if named else {k for k, v in chosen.items() if v is None}
+    say = lambda m: click.echo(m, err=True)  # noqa: E731
+    if "model" in run:
         from weavecap.bench import CASES, run_cold, table
 
         results = []
         for case in CASES:
-            click.echo(f"measuring: {case.name} ...", err=True)
+            say(f"measuring: {case.name} ...")
             results.append(run_cold(case))
         click.echo(table(results))
         click.echo("")
-    if do_fit:
+    if "fit" in run:
         from weavecap import fit_bench
 
         presets = ("draft", "normal") if quick else ("draft", "normal", "high")
-        rows = fit_bench.run(presets, quick=quick, folder=out / "photos", progress=lambda m: click.echo(m, err=True))
+        rows = fit_bench.run(presets, quick=quick, folder=out / "photos", progress=say)
         summary = fit_bench.summary(rows)
         atomic_write_text(out / "results.json", json.dumps({"photos": rows, "summary": summary}, indent=1) + "\n")
         fit_bench.plot(summary, out / "speed_vs_error.png")
         click.echo(fit_bench.table(summary))
         click.echo(f"\n(plot: {out / 'speed_vs_error.png'}; details: {out / 'results.json'})", err=True)
+    if "render" in run:
+        from weavecap.render import bench as render_bench
+
+        results = render_bench.run(quick=quick, progress=say)
+        atomic_write_text(out / "render.json", json.dumps(results, indent=1) + "\n")
+        click.echo(render_bench.tables(results))
+        click.echo(f"\n(details: {out / 'render.json'})", err=True)
