@@ -21,7 +21,10 @@ from .options import force_option, quiet_option, seed_option, verbose_option
 @click.option("--budget", "budget_s", type=click.FloatRange(min=1), default=None,
               help="Stop each photo's fit after this many seconds (the best result so far is kept).")
 @click.option("--jobs", type=click.IntRange(min=1, max=64), default=1, show_default=True,
-              help="Photos fitted in parallel processes.")
+              help="Photos fitted in parallel processes on this machine.")
+@click.option("--scheduler", metavar="ADDRESS",
+              help="Run the batch on a Dask cluster: a scheduler's address (tcp://host:8786, see `dask scheduler`), "
+                   "or local:N for N workers here. A photo whose worker dies is retried once.")
 @click.option("--start-from", "start_from", type=click.Path(dir_okay=False, path_type=Path),
               help="Warm start: begin the fit at this params.json instead of the pre-estimate.")
 @click.option("--pattern", "pattern_file", type=click.Path(dir_okay=False, path_type=Path),
@@ -32,7 +35,7 @@ from .options import force_option, quiet_option, seed_option, verbose_option
 @force_option
 @verbose_option
 @quiet_option
-def fit(photos, out, quality, light, budget_s, jobs, start_from, pattern_file, no_network, as_json, seed, force,
+def fit(photos, out, quality, light, budget_s, jobs, scheduler, start_from, pattern_file, no_network, as_json, seed, force,
         verbose, quiet):
     """Capture woven fabrics from close-up photos: pattern, yarn geometry and appearance.
 
@@ -45,17 +48,21 @@ def fit(photos, out, quality, light, budget_s, jobs, start_from, pattern_file, n
     A photo that is not a resolvable woven fabric gets a report.json saying why and no
     params.json. A batch goes on past bad photos, writes OUT/summary.jsonl one line per photo
     as each finishes, and exits with the worst status. Run it again to resume: finished photos
-    are skipped (unless --force); results are never overwritten without --force.
+    are skipped (unless --force); results are never overwritten without --force. With
+    --scheduler the photos are fitted on a Dask cluster (the same outputs and summary lines;
+    photos and OUT on a file system every worker sees).
 
     \b
     Examples:
       weavecap fit swatch.jpg -o swatch/
       weavecap fit photos/*.jpg -o catalogue/ --jobs 2 --quality draft
+      weavecap fit /shared/photos/*.jpg -o /shared/catalogue/ --scheduler tcp://head:8786
       weavecap fit swatch.dng -o swatch/ --light back --budget 30 --force
       weavecap fit swatch.jpg -o refit/ --start-from swatch/params.json --pattern twill.txt
     """
     from weavecap import batch as wbatch
     from weavecap import params as wparams
+    from weavecap.errors import InputError
     from weavecap.patterns import load_pattern
     from weavecap.pipeline import CaptureOptions, FitJob
 
@@ -76,12 +83,17 @@ def fit(photos, out, quality, light, budget_s, jobs, start_from, pattern_file, n
         else:
             say(f"{where} {photo}: {event.line['status']}: {record.get('reason')}", error=True)
 
+    if scheduler and jobs > 1:
+        raise InputError("--jobs and --scheduler exclude each other: --jobs N runs N processes here, "
+                         "--scheduler local:N runs N Dask workers here")
+    if scheduler:
+        wbatch.local_workers(scheduler)  # a bad local:N is a usage error before any work
     job = FitJob(CaptureOptions(quality=quality, light=light, seed=seed, budget_s=budget_s,
                                 start_from=wparams.load(start_from) if start_from else None,
                                 pattern=load_pattern(pattern_file) if pattern_file else None,
                                 use_network=not no_network))
     batch = wbatch.plan(job, photos, out, force=force)
-    result = wbatch.run(batch, jobs=jobs, on_event=report)
+    result = wbatch.run(batch, jobs=jobs, scheduler=scheduler, on_event=report)
     if as_json:
         click.echo(json.dumps(result.lines if batch.several else result.lines[0], indent=1))
     if result.exit:

@@ -24,6 +24,7 @@ COMMANDS = {
     "fit": "weavecap.cli.fit:fit",
     "synth": "weavecap.cli.synth:synth",
     "render": "weavecap.cli.render:render",
+    "export": "weavecap.cli.export:export",
     "prepare": "weavecap.cli.prepare:prepare",
     "doctor": "weavecap.cli.doctor:doctor",
     "bench": "weavecap.cli.bench:bench",

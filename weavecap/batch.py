@@ -11,14 +11,18 @@ skipped, failed ones are tried again, and each input keeps exactly one summary l
 
 What is done to each input is a :class:`Job` (``weavecap.pipeline.FitJob`` for ``fit``); this
 module only plans, runs and records. Work runs in this process, in a local process pool
-(``jobs``), or on a Dask cluster (``scheduler``).
+(``jobs``), or on a Dask distributed cluster (``scheduler``: an address, or ``local:N``), where
+a photo whose worker dies is tried once more on another, then reported failed.
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
+import logging
 import os
 import time
+import uuid
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Iterable, Iterator, Protocol
@@ -262,6 +266,9 @@ def _start_summary(batch: Batch, lines: list[dict]) -> None:
 
 Outcomes = Iterator[tuple[Item, dict, str]]
 
+#: a photo whose Dask worker dies is tried on a worker once more, then reported failed
+RETRIES = 1
+
 
 def _serial(batch: Batch, on_start: Callable[[Item, int], None]) -> Outcomes:
     for i, item in enumerate(batch.todo, 1):
@@ -281,33 +288,139 @@ def _processes(batch: Batch, jobs: int) -> Outcomes:
             yield (futures[future], *future.result())
 
 
-def run(batch: Batch, *, jobs: int = 1, on_event: Callable[[Event], None] | None = None) -> Result:
-    """Run a planned batch: each input to do, one after the other or ``jobs`` at a time in
-    worker processes; each finished input's line appended to summary.jsonl (several inputs)
-    and reported as an :class:`Event`.
+def local_workers(address: str) -> int | None:
+    """N of a ``local:N`` scheduler address, None for any other address.
+
+    Raises
+    ------
+    InputError
+        ``local:`` followed by anything but a whole number from 1 to 64.
+    """
+    if not address.startswith("local:"):
+        return None
+    n = address[len("local:"):]
+    if not n.isdigit() or not 1 <= int(n) <= 64:
+        raise InputError(f"--scheduler {address}: local:N needs a number of workers N from 1 to 64, e.g. local:2")
+    return int(n)
+
+
+def _tell_scheduler(dask_scheduler, retries: int) -> None:
+    """On a running scheduler (``Client.run_on_scheduler``): a task whose worker dies is
+    rescheduled ``retries`` times, then fails with ``KilledWorker``."""
+    dask_scheduler.allowed_failures = retries
+
+
+@contextlib.contextmanager
+def _dask_client(address: str) -> Iterator[tuple[object, int | None]]:
+    """A Dask client of the scheduler at ``address``, or of a local cluster of N one-thread
+    worker processes on 127.0.0.1 for ``local:N``; and the Dr.Jit threads a worker gets
+    (``cpu_count // N`` locally; a remote worker keeps its machine's default)."""
+    import dask
+    from distributed import Client, LocalCluster
+
+    n = local_workers(address)
+    with contextlib.ExitStack() as stack:
+        stack.enter_context(dask.config.set({"distributed.scheduler.allowed-failures": RETRIES}))
+        if n is not None:
+            cluster = stack.enter_context(LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                                                       host="127.0.0.1", dashboard_address=None,
+                                                       silence_logs=logging.CRITICAL))
+            client = stack.enter_context(Client(cluster))
+            threads = max(1, (os.cpu_count() or 1) // n)
+        else:
+            try:
+                client = stack.enter_context(Client(address))  # distributed.comm.timeouts.connect
+            except (OSError, TimeoutError, ValueError) as exc:
+                raise InputError(f"--scheduler {address}: cannot reach a Dask scheduler there ({exc}); start one "
+                                 "with `dask scheduler` (see the README), or use local:N (nothing was written)") from None
+            client.run_on_scheduler(_tell_scheduler, retries=RETRIES)
+            threads = None
+        yield client, threads
+
+
+def _dask(batch: Batch, client, threads: int | None) -> Outcomes:
+    """Each input a task on the cluster, no more at a time than the workers have threads, so a
+    worker holds only the input it works on: a worker that dies takes that one input with it
+    (which the scheduler reschedules, up to ``RETRIES`` times) and no other. A result is taken
+    back before its worker gets a new input. An input whose worker died ``RETRIES + 1`` times
+    ends as a ``failed`` record, written here."""
+    from distributed import as_completed
+    from distributed.scheduler import KilledWorker
+
+    t0 = time.perf_counter()
+    run_id = uuid.uuid4().hex[:8]  # keys unique on a scheduler that other batches share
+    waiting = list(enumerate(batch.todo))[::-1]
+    items = {}
+
+    def submit() -> object:
+        i, item = waiting.pop()
+        future = client.submit(attempt, batch.job, str(item.source), str(item.folder), threads, pure=False,
+                               key=f"weavecap-{run_id}-{i}-{item.source.name}")
+        items[future.key] = item
+        return future
+
+    slots = max(1, sum(client.nthreads().values()))
+    running = as_completed([submit() for _ in range(min(slots, len(waiting)))])
+    for future in running:
+        item = items.pop(future.key)
+        if future.status == "finished":
+            outcome_ = (item, *future.result())
+        else:
+            exc = future.exception()
+            if isinstance(exc, KilledWorker):
+                reason = (f"lost: its Dask worker died on each of {RETRIES + 1} tries (killed, or out of memory?); "
+                          f"the last was {exc.last_worker.address}, whose log says more")
+            else:
+                reason = f"unexpected error: {type(exc).__name__}: {exc}"
+            record = batch.job.failure_record(str(item.source), "failed", reason, time.perf_counter() - t0)
+            item.folder.mkdir(parents=True, exist_ok=True)
+            atomic_write_text(item.folder / batch.job.record, json.dumps(record, indent=1) + "\n")
+            outcome_ = (item, record, "failed")
+        future.release()
+        slots = max(1, sum(client.nthreads().values()))
+        while waiting and running.count() < slots:
+            running.add(submit())
+        yield outcome_
+
+
+def run(batch: Batch, *, jobs: int = 1, scheduler: str | None = None,
+        on_event: Callable[[Event], None] | None = None) -> Result:
+    """Run a planned batch: each input to do, one after the other, ``jobs`` at a time in
+    worker processes, or on a Dask cluster; each finished input's line appended to
+    summary.jsonl (several inputs) and reported as an :class:`Event`.
 
     Parameters
     ----------
     batch : from :func:`plan`
     jobs : worker processes (1: in this process); Dr.Jit gets ``cpu_count // jobs`` threads each
+    scheduler : a Dask scheduler's address (``tcp://host:8786``) or ``local:N`` (a local cluster
+        of N workers); the inputs' paths must be the same on every worker (a shared file system)
     on_event : called with each skipped, started (in this process) and finished input
+
+    Raises
+    ------
+    InputError
+        ``scheduler`` cannot be reached, or is ``local:`` with a bad count (nothing written).
     """
     tell = on_event or (lambda _event: None)
     total = len(batch.todo)
     result = Result()
-    for item, record in batch.done:
-        tell(Event("skipped", item, 0, total, record=record))
-        result.lines.append(summary_line(batch.job, item, record))
-    if batch.several:
-        _start_summary(batch, result.lines)
-    if jobs > 1 and total > 1:
-        outcomes = _processes(batch, jobs)
-    else:
-        outcomes = _serial(batch, lambda item, i: tell(Event("started", item, i, total)))
-    for i, (item, record, status) in enumerate(outcomes, 1):
-        line = summary_line(batch.job, item, record, status)
-        result.lines.append(line)
+    with contextlib.ExitStack() as stack:
+        if scheduler is not None and total:
+            outcomes = _dask(batch, *stack.enter_context(_dask_client(scheduler)))
+        elif jobs > 1 and total > 1:
+            outcomes = _processes(batch, jobs)
+        else:
+            outcomes = _serial(batch, lambda item, i: tell(Event("started", item, i, total)))
+        for item, record in batch.done:
+            tell(Event("skipped", item, 0, total, record=record))
+            result.lines.append(summary_line(batch.job, item, record))
         if batch.several:
-            _append(batch.summary_path, line)
-        tell(Event("finished", item, i, total, record=record, line=line))
+            _start_summary(batch, result.lines)
+        for i, (item, record, status) in enumerate(outcomes, 1):
+            line = summary_line(batch.job, item, record, status)
+            result.lines.append(line)
+            if batch.several:
+                _append(batch.summary_path, line)
+            tell(Event("finished", item, i, total, record=record, line=line))
     return result

@@ -57,3 +57,19 @@ def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> None:
 def atomic_write_text(path: str | os.PathLike, text: str) -> None:
     """Write UTF-8 ``text`` to ``path`` atomically."""
     atomic_write_bytes(path, text.encode("utf-8"))
+
+
+def user_cache_dir(*parts: str) -> Path:
+    """The user's cache folder for weavecap (created), with ``parts`` appended.
+
+    ``$WEAVECAP_CACHE_DIR`` if set, else ``$XDG_CACHE_HOME/weavecap``, else
+    ``~/.cache/weavecap``. Only data that can be recomputed belongs there (it may be deleted
+    at any time); write into it with :func:`atomic_path`.
+    """
+    root = os.environ.get("WEAVECAP_CACHE_DIR")
+    if not root:
+        xdg = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+        root = str(Path(xdg) / "weavecap")
+    folder = Path(root).joinpath(*parts)
+    folder.mkdir(parents=True, exist_ok=True)
+    return folder
