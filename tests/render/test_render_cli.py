@@ -183,3 +183,20 @@ def test_fabric_angle_turns_the_weave(tmp_path):
         spread[angle] = (red.mean(axis=0).std(), red.mean(axis=1).std())  # across columns, down rows
     assert spread[0][0] > 5 * spread[0][1]
     assert spread[90][1] > 5 * spread[90][0]
+
+
+def test_pattern_replaces_the_params_pattern(tmp_path):
+    """--pattern draft: the weave drawn is the file's (a weft-faced [[1]] shows only the weft's
+    blue where the plain weave showed red warps too)."""
+    fabric = _two_colour(tmp_path, 5.0)
+    pattern = tmp_path / "weft_faced.txt"
+    pattern.write_text("1\n")
+    reds = {}
+    for name, extra in (("plain", []), ("weft", ["--pattern", pattern])):
+        out = tmp_path / f"{name}.exr"
+        result = run(fabric, MESHES / "swatch.obj", "-o", out, "--size", "64x64", "--spp", "4", "--camera",
+                     "orthographic", "--margin", "0", "--light", "front", *extra)
+        assert result.exit_code == 0, result.output
+        image = load_photo(out).rgb
+        reds[name] = float((image[..., 0] - image[..., 2]).mean())
+    assert reds["plain"] > reds["weft"] + 0.01

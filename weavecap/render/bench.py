@@ -1,0 +1,207 @@
+"""Speed, memory and agreement of the output renderers, for ``weavecap bench --render``.
+
+A list of sections (:data:`SECTIONS`); the woven and fold renderers add theirs with
+:func:`register_section`. Built in:
+
+- ``reference``: ``weavecap render --mode reference`` of a fixture fabric on the towel
+  (``../shared/meshes``, when present) and on every fixture mesh, at 1280×720, 64 spp, path
+  depth 8, studio light — against Mitsuba's own ``path`` integrator with a plain ``diffuse``
+  BSDF on the same mesh, camera, lights, size, spp and depth. Each (mesh, renderer) runs in a
+  fresh process with an empty Dr.Jit kernel cache, back to back: *cold* is the first render
+  (tracing and compiling its kernels included), *warm* the next one; the bake is timed apart;
+  peak memory is the process's maximum resident set. The goal (issue 12): the reference at most
+  4× the diffuse baseline, as a ratio measured side by side.
+- ``consistency``: :func:`weavecap.render.consistency.compare_with_synth` for every fixture
+  params file at the fixture photos' scale (4×4 repeats, 512 pixels, 64 spp).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+from ..fixtures import path as fixture_path
+
+SHARED_MESHES = Path(__file__).resolve().parents[2] / ".." / "shared" / "meshes"
+FABRIC = fixture_path("params", "twill_2_1.json")
+SIZE, SPP, DEPTH = (1280, 720), 64, 8
+QUICK_MESHES = ("swatch",)
+
+
+@dataclass(frozen=True)
+class Section:
+    """One part of the render bench: ``run(quick, progress) -> rows`` and ``table(rows) -> str``
+    (markdown)."""
+
+    name: str
+    title: str
+    run: Callable
+    table: Callable
+
+
+SECTIONS: list[Section] = []
+
+
+def register_section(section: Section) -> None:
+    """Add a section (replacing one of the same name)."""
+    SECTIONS[:] = [s for s in SECTIONS if s.name != section.name] + [section]
+
+
+# --------------------------------------------------------------------------------------------
+# reference against Mitsuba's path + diffuse
+
+
+def bench_meshes(quick: bool = False) -> list[tuple[str, Path]]:
+    """(name, path): the towel when ../shared is present, then the fixture meshes."""
+    from .shapes import FIXTURES
+
+    meshes = []
+    towel = SHARED_MESHES / "towel.obj"
+    if towel.is_file():
+        meshes.append(("towel", towel.resolve()))
+    names = QUICK_MESHES if quick else tuple(FIXTURES)
+    return meshes + [(name, fixture_path("meshes", f"{name}.obj")) for name in names]
+
+
+def measure(mesh_path: Path, renderer: str) -> dict:
+    """Time one renderer (``diffuse`` or ``reference``) on one mesh in this process: cold and
+    warm renders, the bake, peak memory (call it in a fresh process for honest cold figures)."""
+    from .. import params
+    from ..backend import mitsuba
+    from .mesh import load_mesh
+    from .run import RenderOptions, prepare_render, render_passes
+    from .scene import frame_camera, lighting
+
+    mi = mitsuba()
+    out: dict = {"renderer": renderer}
+    t = time.perf_counter()
+    mesh = load_mesh(mesh_path)
+    out["mesh_s"] = time.perf_counter() - t
+    out["triangles"] = int(len(mesh.faces))
+    options = RenderOptions(spp=SPP, size=SIZE, max_depth=DEPTH)
+    t = time.perf_counter()
+    if renderer == "diffuse":
+        camera = frame_camera(mesh.bounds, view=options.view, kind=options.camera, fov_deg=options.fov_deg,
+                              margin=options.margin, size=options.size)
+        lights = lighting(options.light, camera)
+        scene = mi.load_dict({"type": "scene", "integrator": {"type": "path", "max_depth": DEPTH},
+                              "sensor": camera.sensor(SPP), "garment": mesh.to_mitsuba(mi.load_dict({"type": "diffuse"})),
+                              **lights.emitters})
+        out["bake_s"] = 0.0
+    else:
+        prepared = prepare_render(params.load(FABRIC), mesh, options)
+        scene = prepared.scene
+        out["bake_s"] = prepared.timings["bake"]
+        out["texture_filter"] = prepared.info["texture_filter"]
+        out["texels_per_yarn"] = prepared.info["texels_per_yarn"]
+    out["setup_s"] = time.perf_counter() - t
+    for key, seed in (("cold_s", 0), ("warm_s", 1)):
+        t = time.perf_counter()
+        render_passes(scene, SPP, seed)
+        out[key] = time.perf_counter() - t
+    out["peak_rss_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    return out
+
+
+def _child(args: list[str]) -> dict:
+    with tempfile.TemporaryDirectory() as cache:
+        env = dict(os.environ, DRJIT_CACHE_DIR=cache)
+        proc = subprocess.run([sys.executable, "-m", "weavecap.render.bench", "--child", *args], env=env,
+                              capture_output=True, text=True, check=False)
+    if proc.returncode != 0:
+        raise RuntimeError(f"render bench {args} failed:\n{proc.stderr[-2000:]}")
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+def run_reference(quick: bool = False, progress=None) -> list[dict]:
+    """Both renderers on every bench mesh, each in a fresh process, back to back."""
+    rows = []
+    for name, path in bench_meshes(quick):
+        row = {"mesh": name, "load_average": os.getloadavg()[0]}
+        for renderer in ("diffuse", "reference"):
+            if progress:
+                progress(f"render bench: {name}, {renderer} ...")
+            row[renderer] = _child([str(path), renderer])
+        for key in ("cold_s", "warm_s"):
+            row[f"ratio_{key[:-2]}"] = row["reference"][key] / row["diffuse"][key]
+        rows.append(row)
+    return rows
+
+
+def reference_table(rows: list[dict]) -> str:
+    lines = [f"| mesh | triangles | `path` + `diffuse` cold / warm | reference cold / warm | ratio cold / warm | "
+             "bake | peak memory (diffuse / reference) |", "|---|---|---|---|---|---|---|"]
+    for r in rows:
+        d, f = r["diffuse"], r["reference"]
+        lines.append(f"| {r['mesh']} | {d['triangles']} | {d['cold_s']:.1f} / {d['warm_s']:.1f} s | "
+                     f"{f['cold_s']:.1f} / {f['warm_s']:.1f} s | {r['ratio_cold']:.2f}× / {r['ratio_warm']:.2f}× | "
+                     f"{f['bake_s']:.1f} s | {d['peak_rss_mb']:.0f} / {f['peak_rss_mb']:.0f} MB |")
+    return "\n".join(lines)
+
+
+# --------------------------------------------------------------------------------------------
+# consistency with the forward model
+
+
+def run_consistency(quick: bool = False, progress=None) -> list[dict]:
+    from .. import params
+    from .consistency import compare_with_synth
+
+    rows = []
+    files = sorted(fixture_path("params").glob("*.json"))
+    for path in files[:2] if quick else files:
+        if progress:
+            progress(f"render bench: consistency, {path.stem} ...")
+        result = compare_with_synth(params.load(path), tiles=4, size=512, spp=SPP)
+        rows.append({"params": path.stem, "psnr_db": result["psnr_db"], "size": list(result["size"]),
+                     "texels_per_yarn": result["texels_per_yarn"], "seconds": result["seconds"]})
+    return rows
+
+
+def consistency_table(rows: list[dict]) -> str:
+    lines = ["| fixture | size | texels/yarn | PSNR after 1-px blur | render (bake included) |", "|---|---|---|---|---|"]
+    for r in rows:
+        lines.append(f"| {r['params']} | {r['size'][0]}×{r['size'][1]} | {r['texels_per_yarn']} | "
+                     f"{r['psnr_db']:.1f} dB | {r['seconds']:.1f} s |")
+    return "\n".join(lines)
+
+
+register_section(Section("reference", "Reference renderer against Mitsuba's path + diffuse (1280×720, 64 spp, "
+                                      "depth 8, studio light)", run_reference, reference_table))
+register_section(Section("consistency", "Flat swatch against synth (rig both, 4×4 repeats, 512 px, 64 spp)",
+                         run_consistency, consistency_table))
+
+
+def run(quick: bool = False, progress=None) -> dict:
+    """Every section: {name: rows}."""
+    return {section.name: section.run(quick, progress) for section in SECTIONS}
+
+
+def tables(results: dict) -> str:
+    """Every section's table under its title (markdown)."""
+    parts = []
+    for section in SECTIONS:
+        if section.name in results:
+            parts.append(f"### {section.title}\n\n{section.table(results[section.name])}")
+    return "\n\n".join(parts)
+
+
+def main(argv: list[str] | None = None) -> None:
+    """``python -m weavecap.render.bench --child MESH RENDERER``: measure one case, print JSON."""
+    argv = sys.argv[1:] if argv is None else argv
+    if argv[:1] != ["--child"] or len(argv) != 3:
+        raise SystemExit("usage: python -m weavecap.render.bench --child MESH diffuse|reference (use `weavecap bench "
+                         "--render`)")
+    print(json.dumps(measure(Path(argv[1]), argv[2])))
+
+
+if __name__ == "__main__":
+    main()
