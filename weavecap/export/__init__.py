@@ -177,13 +177,10 @@ def _preview(maps: PbrMaps):
     import tempfile
 
     from . import mitsuba
-    from .maps import MAP_KINDS, map_image, write_map
 
     with tempfile.TemporaryDirectory() as tmp:
-        textures = {}
-        for key, kind in MAP_KINDS.items():
-            textures[key] = str(Path(tmp) / f"{key}.png")
-            write_map(textures[key], map_image(maps, key), kind=kind, bits=16)
+        textures = {key: str(Path(tmp) / f"{key}.png") for key in mitsuba.TEXTURES}
+        mitsuba.write_textures(maps, Path(tmp), textures)
         scene = mitsuba.swatch_scene(maps, textures, swatch_mm=maps.size_mm[0], size=(PREVIEW_PIXELS, PREVIEW_PIXELS),
                                      spp=PREVIEW_SPP)
         return mitsuba.render_scene(scene)
