@@ -65,11 +65,14 @@ def _seams(image: np.ndarray, t: int) -> tuple[float, float, float, float]:
 @pytest.mark.parametrize("key", ["base_color", "transmission", "normal", "roughness", "opacity", "height"])
 def test_every_map_tiles_without_seams(exported, key):
     """Opposite edges continue each other: the jump across a seam is no larger than across
-    the yarn boundaries inside the tile (the seams are yarn boundaries too)."""
+    the yarn boundaries inside the tile (the seams are yarn boundaries too). The base colour and
+    transmission are Monte-Carlo fits: over seeds 0-3 their seam jump came out up to 1.17x the
+    largest inner one (a seam off by a texel, or an unwrapped filter, gives 2x and more)."""
     out, _ = exported
     image = read_png(out / "pbr" / f"twill_2_1_{key}.png")
     seam_x, inner_x, seam_y, inner_y = _seams(image, T)
-    assert seam_x <= 1.1 * inner_x + 1e-3 and seam_y <= 1.1 * inner_y + 1e-3, (seam_x, inner_x, seam_y, inner_y)
+    margin = 1.3 if key in ("base_color", "transmission") else 1.1
+    assert seam_x <= margin * inner_x + 1e-3 and seam_y <= margin * inner_y + 1e-3, (seam_x, inner_x, seam_y, inner_y)
 
 
 def test_the_tile_is_one_period_of_the_fabric():
