@@ -110,7 +110,8 @@ def pitch_of(fabric: Fabric, pitch_mm: float | None) -> float:
     pitch = pitch_mm if pitch_mm is not None else (fabric.scale or {}).get("pitch_mm")
     if pitch is None:
         raise InputError("scale.pitch_mm: the params file does not say how far apart the yarns are, and the maps' "
-                         "physical size depends on it; pass --pitch-mm (e.g. --pitch-mm 0.3)")
+                         "physical size depends on it; pass --pitch-mm (e.g. --pitch-mm 0.3), or --format wif for "
+                         "the draft alone (nothing was written)")
     return float(pitch)
 
 
