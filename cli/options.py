@@ -26,3 +26,18 @@ def parse_tiles(ctx, param, value: str) -> tuple[int, int]:
     if not (1 <= rows <= 64 and 1 <= cols <= 64):
         raise click.BadParameter(f"{value!r}: each count must be in [1, 64]")
     return rows, cols
+
+
+def claim_work_folder(work, plan: dict) -> None:
+    """Make ``work`` hold the data of ``plan`` (a dict of settings): refuse, naming the file,
+    a folder that holds data made with other settings; else record ``plan`` there."""
+    import json
+
+    from weavecap.errors import InputError
+
+    work.mkdir(parents=True, exist_ok=True)
+    plan_file = work / "config.json"
+    if plan_file.is_file() and json.loads(plan_file.read_text()) != json.loads(json.dumps(plan)):
+        raise InputError(f"{work}: holds data made with other settings ({plan_file}); use another --work folder "
+                         "or delete that one")
+    plan_file.write_text(json.dumps(plan, indent=1) + "\n")

@@ -161,6 +161,8 @@ def render(inputs, out, mode, spp, size, view, camera, fov_deg, margin, light, g
         images.append(result.image)
         for note in result.info["notes"]:
             say(f"{params_file}: {note}")
+        if result.info.get("fold_detail"):
+            say(f"{where}fold term {result.info['fold']}: {_fold_summary(result.info['fold_detail'])}", level=1)
         t = result.info["timings"]
         say(f"{where}wrote {target} ({size[0]}x{size[1]}, {mode}, {spp} spp, pitch {result.info['pitch_mm']:g} mm, "
             f"{t['total']:.1f} s: bake {t['bake']:.1f} s, render {t['render']:.1f} s)")
@@ -179,6 +181,15 @@ def render(inputs, out, mode, spp, size, view, camera, fov_deg, margin, light, g
                      "bounds_m": mesh.bounds.tolist(), "notes": mesh.notes}
         click.echo(json.dumps({"mesh": mesh_info, "images": rendered,
                                "sheet": str(out / "sheet.png") if sheet else None}, indent=1))
+
+
+def _fold_summary(detail: dict) -> str:
+    """One line of what the fold term modelled (for -v)."""
+    folded = detail["folded_vertices"]
+    return (f"r = {detail['radius_m'] * 1000:.1f} mm, valleys at {folded['front']} (front) and {folded['back']} "
+            f"(back) of {folded['of']} vertices, {detail['lights']} lights + {detail['sky_directions']} sky directions, "
+            f"{detail['neighbours']} neighbour samples a vertex, {sum(detail['timings'].values()):.2f} s"
+            + "".join(f"; {note}" for note in detail["notes"]))
 
 
 def _targets(params_files: list[Path], out: Path) -> list[Path]:

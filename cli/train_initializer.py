@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import json
 import time
 from pathlib import Path
 
 import click
 
-from .options import force_option, quiet_option, seed_option
+from .options import claim_work_folder, force_option, quiet_option, seed_option
 
 
 @click.command(context_settings={"max_content_width": 100})
@@ -59,13 +58,7 @@ def train_initializer(work: Path, out_dir: Path | None, geometries: int, per_geo
                              shard_geometries=shard_size, epochs=epochs)
     except ValueError as exc:
         raise InputError(f"--geometries/--shard-size: {exc}") from None
-    plan = config.data_settings()
-    work.mkdir(parents=True, exist_ok=True)
-    plan_file = work / "config.json"
-    if plan_file.is_file() and json.loads(plan_file.read_text()) != json.loads(json.dumps(plan)):
-        raise InputError(f"{work}: holds data rendered with other settings ({plan_file}); use another "
-                         "--work folder or delete that one")
-    plan_file.write_text(json.dumps(plan, indent=1) + "\n")
+    claim_work_folder(work, config.data_settings())
 
     def progress(message: str) -> None:
         if not quiet:

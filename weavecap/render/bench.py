@@ -180,8 +180,24 @@ register_section(Section("consistency", "Flat swatch against synth (rig both, 4Ã
                          run_consistency, consistency_table))
 
 
+#: optional modules of the other renderers that register a section when imported
+PLUGIN_SECTIONS = ("weavecap.render.woven.bench", "weavecap.render.fold.bench")
+
+
+def _load_plugin_sections() -> None:
+    import importlib
+
+    for name in PLUGIN_SECTIONS:
+        try:
+            importlib.import_module(name)
+        except ModuleNotFoundError as exc:
+            if exc.name is None or not name.startswith(exc.name):  # it exists, but something it needs does not
+                raise
+
+
 def run(quick: bool = False, progress=None) -> dict:
     """Every section: {name: rows}."""
+    _load_plugin_sections()
     return {section.name: section.run(quick, progress) for section in SECTIONS}
 
 

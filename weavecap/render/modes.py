@@ -65,9 +65,10 @@ class FoldTerm:
     ----------
     name : for messages and ``--json``
     has_folds : ``(mesh) -> bool``: whether ``auto`` should apply it to this mesh
-    apply : ``(context) -> image``: the image with the fold term added, given the
-        :class:`weavecap.render.run.RenderContext` of the render (scene, mesh, fabric, maps,
-        camera, lighting, options and the image so far, linear (H, W, 3))
+    apply : ``(context) -> image`` or ``(image, detail)``: the image with the fold term added,
+        given the :class:`weavecap.render.run.RenderContext` of the render (scene, mesh, fabric,
+        maps, camera, lighting, options and the image so far, linear (H, W, 3)); ``detail``, a
+        dict of what it modelled, goes to the render's info as ``fold_detail``
     """
 
     name: str
@@ -155,4 +156,4 @@ def _path(max_depth: int | None):
 register_mode(Mode("reference", "path tracing of the surface model (max depth, Russian roulette)",
                    bsdf=_surface_bsdf, integrator=_path(None)))
 register_mode(Mode("direct", "direct lighting only (one bounce) of the surface model",
-                   bsdf=_surface_bsdf, integrator=_path(2)))
+                   bsdf=_surface_bsdf, integrator=_path(2), fold=True))

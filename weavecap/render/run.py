@@ -174,7 +174,8 @@ def prepare_render(fabric: Fabric, mesh: RenderMesh, options: RenderOptions) -> 
         "repeat_mm": [n_a * pitch_mm, n_e * pitch_mm], "fabric_angle_deg": options.angle_deg,
         "fabric_offset": list(options.offset), "texels_per_yarn": maps.texels_per_yarn,
         "pixels_per_yarn": pixels_per_yarn, "texture_filter": "linear" if linear else "nearest",
-        "noise": noise is not None, "fold": term.name if term is not None else None, "seed": options.seed,
+        "noise": noise is not None, "fold": term.name if term is not None else None, "fold_detail": None,
+        "seed": options.seed,
         "timings": timings, "notes": notes,
     }
     return PreparedRender(scene=scene, camera=camera, lighting=lights, maps=maps, fold_term=term, info=info,
@@ -205,7 +206,10 @@ def render_fabric(fabric: Fabric, mesh: RenderMesh, options: RenderOptions, *, p
         t = time.perf_counter()
         context = RenderContext(prepared.scene, mesh, fabric, prepared.maps, prepared.camera, prepared.lighting,
                                 options, image)
-        image = np.asarray(prepared.fold_term.apply(context), dtype=np.float32)
+        applied = prepared.fold_term.apply(context)
+        image, detail = applied if isinstance(applied, tuple) else (applied, None)  # (image, what it modelled)
+        image = np.asarray(image, dtype=np.float32)
+        prepared.info["fold_detail"] = detail
         timings["fold"] = time.perf_counter() - t
     timings["total"] = time.perf_counter() - start
     return RenderResult(image=image, info=prepared.info)

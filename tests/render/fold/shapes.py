@@ -1,4 +1,4 @@
-"""Small meshes with known fold descriptors, made here for the fold tests (numpy only)."""
+"""Small meshes with known fold descriptors, and plain Mitsuba scenes of them, for the fold tests."""
 
 from __future__ import annotations
 
@@ -53,3 +53,39 @@ def cylinder(radius: float = 1.0, length: float = 4.0, n: int = 96, rows: int = 
             c, d = a + n, b + n
             faces += [[a, d, b], [a, c, d]]
     return v, np.array(faces, np.int64)
+
+
+def mesh_shape(vertices, faces, *, normals=None, bsdf=None, name: str = "mesh"):
+    """A Mitsuba triangle mesh from arrays (flat-shaded without normals); ``bsdf`` a dict or object."""
+    import drjit as dr
+
+    from weavecap.backend import mitsuba
+
+    mi = mitsuba()
+    v = np.ascontiguousarray(vertices, np.float32)
+    f = np.ascontiguousarray(faces, np.uint32)
+    props = mi.Properties()
+    if bsdf is not None:
+        props["bsdf"] = mi.load_dict(bsdf) if isinstance(bsdf, dict) else bsdf
+    mesh = mi.Mesh(name, len(v), len(f), props=props, has_vertex_normals=normals is not None)
+    params = mi.traverse(mesh)
+    params["vertex_positions"] = dr.ravel(mi.Point3f(*v.T))
+    params["faces"] = dr.ravel(mi.Vector3u(*f.T))
+    if normals is not None:
+        params["vertex_normals"] = dr.ravel(mi.Normal3f(*np.ascontiguousarray(normals, np.float32).T))
+    params.update()
+    return mesh
+
+
+def diffuse(albedo) -> dict:
+    """A two-sided Lambertian BSDF dictionary of an RGB (or grey) albedo."""
+    rgb = np.broadcast_to(np.asarray(albedo, float), (3,)).tolist()
+    return {"type": "twosided", "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": rgb}}}
+
+
+def directional(direction, irradiance=1.0) -> dict:
+    """A directional emitter dictionary: light travelling along ``direction``, RGB irradiance."""
+    d = np.asarray(direction, float)
+    rgb = np.broadcast_to(np.asarray(irradiance, float), (3,)).tolist()
+    return {"type": "directional", "direction": (d / np.linalg.norm(d)).tolist(),
+            "irradiance": {"type": "rgb", "value": rgb}}

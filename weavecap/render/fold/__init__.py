@@ -4,5 +4,28 @@
   the mesh's fold scale, the polynomial surface φ_poly, the hill-valley radii φ_hv (both
   sides), the neighbourhood normal n_N; cached per mesh;
 - :mod:`.localpt` — LocalPT, path tracing whose indirect bounces stay within r of the first
-  hit (§4.2, the BLIDF's ground truth), as a Mitsuba integrator.
+  hit (§4.2, the BLIDF's ground truth), as a Mitsuba integrator;
+- :mod:`.visibility` — neighbourhood visibility V̄ (§2): sampled, or ASG lobes;
+- :mod:`.blidf` — the BLIDF network S_θ (factorised intensity × spherical harmonics);
+- :mod:`.training` — its training data (LocalPT on the procedural fold suite) and training;
+- :mod:`.term` — the fold term of ``weavecap render`` (registered here, at import).
+
+``weavecap.render.modes`` imports this package when a render asks for a fold term.
 """
+
+from ..modes import FoldTerm, register_fold_term
+
+
+def _has_folds(mesh) -> bool:
+    from .term import has_folds
+
+    return has_folds(mesh)
+
+
+def _apply(context):
+    from .term import apply
+
+    return apply(context)
+
+
+register_fold_term(FoldTerm("blidf", _has_folds, _apply))

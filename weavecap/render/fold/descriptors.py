@@ -183,11 +183,14 @@ def fold_radius(vertices, faces, *, normals=None, seed: int = 0, points: int = 3
     directions of a pair) — the width of one fold, which the supplement's r encapsulates. r is
     the distance of that first minimum (at C < −0.1). A mesh without one (a plane, a sphere,
     curvature of one sign and no ripple) has no fold scale: r is then a tenth of the diagonal
-    (no fold for it to span). Clamped to [3 median edges, ¼ diagonal].
+    (no fold for it to span). Clamped to [3 edges, ¼ diagonal], an edge being the median over the
+    faces of their shortest (a sheet swept along its folds has long thin faces).
     """
     v, f = check_mesh(vertices, faces)
-    e1 = np.linalg.norm(v[f[:, 1]] - v[f[:, 0]], axis=1)
-    edge = float(np.median(e1[e1 > 0])) if np.any(e1 > 0) else 0.0
+    lengths = np.linalg.norm(v[f[:, [1, 2, 0]]] - v[f], axis=2)  # (F, 3)
+    shortest = np.where(lengths > 0, lengths, np.inf).min(axis=1)
+    shortest = shortest[np.isfinite(shortest)]
+    edge = float(np.median(shortest)) if len(shortest) else 0.0  # the fine direction of long thin faces
     diagonal = float(np.linalg.norm(v.max(axis=0) - v.min(axis=0)))
     if diagonal <= 0 or edge <= 0:
         return FoldRadius(max(diagonal, 1.0) / 10, "degenerate mesh (no extent): a tenth of the bounding-box diagonal")

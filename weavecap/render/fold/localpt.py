@@ -19,8 +19,8 @@ with a Dr.Jit loop; primal only), registered as ``{"type": "localpt"}``:
   (``direct=False`` gives the fold term's target, the local inter-reflection alone);
 - ``same_shape`` (bool, true): bounces must stay on x_o's shape.
 
-:func:`radiance_leaving` evaluates the same estimator at given surface points and directions
-(for training data, without a camera).
+:meth:`LocalPathIntegrator.trace` runs it from a given first hit, and :func:`radiance_leaving`
+at given surface points and directions (for training data, without a camera).
 """
 
 from __future__ import annotations
@@ -57,9 +57,19 @@ class LocalPathIntegrator(mi.SamplingIntegrator):
         """1 for the parts of the light this integrator keeps, 0 for the others."""
         return dr.select(direct, mi.Float(float(self.keep_direct)), mi.Float(float(self.keep_indirect)))
 
-    @dr.syntax
     def sample(self, scene: mi.Scene, sampler: mi.Sampler, ray: mi.RayDifferential3f,
                medium: mi.Medium = None, active: mi.Bool = True):
+        ray = mi.Ray3f(ray)
+        si = scene.ray_intersect(ray, ray_flags=mi.RayFlags.All, coherent=True, active=active)
+        return self.trace(scene, sampler, ray, si, mi.Bool(active))
+
+    @dr.syntax
+    def trace(self, scene: mi.Scene, sampler: mi.Sampler, ray: mi.Ray3f, si: mi.SurfaceInteraction3f,
+              active: mi.Bool):
+        """The LocalPT estimate of the radiance leaving the first hit ``si`` towards ``si.wi``.
+
+        Returns (radiance, whether ``si`` is a hit, no AOVs), as :meth:`sample` does.
+        """
         bsdf_ctx = mi.BSDFContext()
         ray = mi.Ray3f(ray)
         active = mi.Bool(active)
@@ -67,7 +77,7 @@ class LocalPathIntegrator(mi.SamplingIntegrator):
         L = mi.Spectrum(0)
         beta = mi.Spectrum(1)
         eta = mi.Float(1)
-        si = scene.ray_intersect(ray, ray_flags=mi.RayFlags.All, coherent=True, active=active)
+        si = mi.SurfaceInteraction3f(si)
         valid = si.is_valid()
         x_o = mi.Point3f(si.p)
         shape_o = si.shape
@@ -139,17 +149,21 @@ def register() -> None:
 register()
 
 
-def radiance_leaving(scene: mi.Scene, integrator: mi.SamplingIntegrator, points: np.ndarray, directions: np.ndarray,
-                     *, spp: int, seed: int = 0, offset: float) -> np.ndarray:
-    """The integrator's estimate of the radiance leaving surface points towards directions.
+def radiance_leaving(scene: mi.Scene, integrator: LocalPathIntegrator, points: np.ndarray, normals: np.ndarray,
+                     directions: np.ndarray, *, spp: int, seed: int = 0, offset: float) -> np.ndarray:
+    """LocalPT's estimate of the radiance leaving surface points towards directions.
 
-    Each estimate starts a camera-like ray at ``point + offset · direction`` pointing back at
-    the point, so its first hit is the point, on the side ``direction`` looks at.
+    Each point is found by a ray down its normal from ``offset`` above it (robust on a
+    triangulated surface, where a vertex of a valley lies below its faces and a ray arriving
+    along a grazing view direction could slip under them), then the path starts there with
+    the view direction as its ω_o.
 
     Parameters
     ----------
-    points, directions : (P, 3) arrays
-        Points on the scene's surfaces and unit directions leaving them (the view directions).
+    points, normals : (P, 3) arrays
+        Points on the scene's surfaces (mesh vertices) and the normals of the side wanted.
+    directions : (P, 3) array
+        Unit directions leaving the points (the view), on the side of ``normals``.
     spp : int
         Paths per point.
     offset : float
@@ -160,16 +174,21 @@ def radiance_leaving(scene: mi.Scene, integrator: mi.SamplingIntegrator, points:
     (P, 3) float64 — the mean RGB radiance over ``spp`` paths (0 where the ray missed).
     """
     points = np.asarray(points, np.float64)
-    directions = np.asarray(directions, np.float64)
+    normals = np.asarray(normals, np.float64)
     n = len(points)
     if n == 0:
         return np.zeros((0, 3))
-    origin = np.repeat(points + offset * directions, spp, axis=0)
-    d = -np.repeat(directions, spp, axis=0)
-    ray = mi.Ray3f(mi.Point3f(*(origin.T.astype(np.float32))), mi.Vector3f(*(d.T.astype(np.float32))))
+
+    def lanes(a):
+        return np.ascontiguousarray(np.repeat(np.asarray(a, np.float64), spp, axis=0).T.astype(np.float32))
+
+    origin = lanes(points + offset * normals)
+    ray = mi.Ray3f(mi.Point3f(*origin), mi.Vector3f(*lanes(-normals)))
+    si = scene.ray_intersect(ray, ray_flags=mi.RayFlags.All, coherent=True, active=mi.Bool(True))
+    si.wi = si.to_local(mi.Vector3f(*lanes(directions)))
     sampler = mi.load_dict({"type": "independent"})
     sampler.seed(seed, n * spp)
-    L, valid, _ = integrator.sample(scene, sampler, ray, None, mi.Bool(True))
+    L, valid, _ = integrator.trace(scene, sampler, ray, si, mi.Bool(True))
     L = dr.select(valid, L, 0.0)
     rgb = np.stack([np.asarray(L[k]) for k in range(3)], axis=1).astype(np.float64)
     return rgb.reshape(n, spp, 3).mean(axis=1)

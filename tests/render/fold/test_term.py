@@ -1,0 +1,89 @@
+"""The fold term in ``weavecap render``: where it applies, what it adds, what it says."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from weavecap import params
+from weavecap.fixtures import path as fixture_path
+from weavecap.render import modes
+from weavecap.render.fold import bench, term
+from weavecap.render.mesh import load_mesh
+from weavecap.render.run import RenderOptions, render_fabric
+
+FABRIC = fixture_path("params", "satin_5.json")
+
+
+@pytest.fixture(scope="module")
+def fabric():
+    return params.load(FABRIC)
+
+
+def test_a_flat_swatch_pays_nothing(fabric, monkeypatch):
+    swatch = load_mesh(fixture_path("meshes", "swatch.obj"))
+
+    def no_descriptors(*a, **k):
+        raise AssertionError("a flat mesh must not need descriptors")
+
+    monkeypatch.setattr(term, "cached_descriptors", no_descriptors)
+    assert not term.has_folds(swatch)
+    options = RenderOptions(mode="direct", spp=4, size=(32, 18), light="sun", view=(0.0, 30.0))
+    auto = render_fabric(fabric, swatch, options)
+    off = render_fabric(fabric, swatch, replace(options, fold="off"))
+    assert auto.info["fold"] is None and auto.info["fold_detail"] is None
+    np.testing.assert_array_equal(auto.image, off.image)
+
+
+def test_the_fold_term_brightens_valleys_and_says_what_it_modelled(fabric):
+    sine = load_mesh(fixture_path("meshes", "sine_high.obj"))
+    assert term.has_folds(sine)
+    options = RenderOptions(mode="direct", spp=8, size=(64, 36), light="sun", view=(0.0, 35.0), fold="off")
+    off = render_fabric(fabric, sine, options)
+    on = render_fabric(fabric, sine, replace(options, fold="auto"))
+    assert on.info["fold"] == "blidf"
+    added = on.image - off.image
+    garment = bench.garment_mask(off.image)
+    share = added[garment].mean() / off.image[garment].mean()
+    assert np.all(added >= -1e-6) and 0.005 < share < 0.03, share  # measured 0.013; LocalPT's local light: 0.021
+    detail = on.info["fold_detail"]
+    assert detail["folded_vertices"]["of"] == len(sine.positions)
+    assert 0 < detail["folded_vertices"]["front"] < len(sine.positions)
+    assert detail["lights"] == 1 and detail["sky_directions"] == term.SKY_DIRECTIONS  # the sun, and the sky
+    assert detail["radius_m"] == pytest.approx(0.0296, rel=0.05)
+    json.dumps(on.info)  # plain data for --json
+
+
+def test_direct_plus_fold_is_closer_to_localpt_than_direct_alone(fabric):
+    sine = load_mesh(fixture_path("meshes", "sine_high.obj"))
+    desc, radius, _ = term.cached_descriptors(sine.positions, sine.faces, normals=sine.normals)
+    options = RenderOptions(mode="direct", spp=64, size=(64, 36), light="sun", view=(0.0, 35.0), fold="off", seed=1)
+    direct = render_fabric(fabric, sine, options).image
+    with_fold = render_fabric(fabric, sine, replace(options, fold="on")).image
+    modes.register_mode(bench._localpt_mode(radius.value))
+    try:
+        local = render_fabric(fabric, sine, replace(options, mode="fold-localpt", spp=256)).image
+    finally:
+        modes.MODES.pop("fold-localpt")
+    reference = direct + local
+    mask = bench.garment_mask(direct)
+    without = bench.rmse(direct, reference, mask)
+    ours = bench.rmse(with_fold, reference, mask)
+    assert ours < 0.7 * without, (ours, without)  # measured 0.58 (the 256-spp reference's own noise included)
+
+
+def test_render_command_reports_the_fold_term(tmp_path):
+    from weavecap.cli.main import cli
+
+    out = tmp_path / "sine.png"
+    result = CliRunner().invoke(cli, ["render", str(FABRIC), str(fixture_path("meshes", "sine_high.obj")), "-o",
+                                      str(out), "--mode", "direct", "--size", "32x18", "--spp", "4", "--light", "sun",
+                                      "--json", "-v"])
+    assert result.exit_code == 0, result.output
+    assert "fold term blidf: r = 29.6 mm" in result.stderr
+    doc = json.loads(result.stdout)
+    assert doc["images"][0]["fold"] == "blidf" and doc["images"][0]["fold_detail"]["neighbours"] == term.NEIGHBOURS

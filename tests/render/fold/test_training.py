@@ -1,0 +1,70 @@
+"""BLIDF training: data made by LocalPT, resumable and seeded; the CLI that runs it."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from weavecap.render.fold import blidf as B
+from weavecap.render.fold import training as T
+
+
+TINY = T.TrainConfig(pool=40, lights=4, per_light=12, block=2, hat_points=2, paths=4, neighbours=8, epochs=2,
+                     batch=64, fabrics=("plain",))
+
+
+def tiny_meshes():
+    from weavecap.render.shapes import sine_folds
+
+    return [T.FoldMesh("tiny_sine", sine_folds(amplitude=0.012, width=0.1, height=0.05, rows=11, name="tiny_sine"))]
+
+
+def test_data_are_seeded_resumable_and_train_into_loadable_weights(tmp_path):
+    meshes = tiny_meshes()
+    first = tmp_path / "a"
+    T.generate_data(first, meshes, TINY)
+    shards = sorted((first / "data").glob("*.npz"))
+    assert len(shards) == TINY.blocks == 2
+    a = np.load(shards[0])
+    assert a["target"].shape == (2 * 2 * TINY.per_light, 3) and np.all(np.isfinite(a["target"]))
+    assert np.all(a["target"] >= 0) and np.all((a["vbar"] >= 0) & (a["vbar"] <= 1))
+    # the same seed makes the same data; a shard that exists is not made again
+    second = tmp_path / "b"
+    T.generate_data(second, meshes, TINY)
+    b = np.load(sorted((second / "data").glob("*.npz"))[0])
+    for key in ("features", "target", "vbar", "vertex"):
+        np.testing.assert_array_equal(a[key], b[key])
+    stamp = shards[0].stat().st_mtime_ns
+    T.generate_data(first, meshes, TINY)
+    assert shards[0].stat().st_mtime_ns == stamp
+    net, seconds, errors = T.train(first, meshes, TINY)
+    assert (first / "checkpoint.pt").is_file() and seconds > 0
+    model = T.write_weights(tmp_path / "w.json", net, meshes, TINY, data_seconds=1.0, train_seconds=seconds,
+                            errors=errors, radii=T.mesh_radii(first, meshes, TINY))
+    again = B.BLIDF.load(tmp_path / "w.json")
+    assert again.parameters == model.parameters == 1466
+    assert again.record["config"]["lights"] == 4 and again.record["meshes"][0]["name"] == "tiny_sine"
+    # resuming after the last epoch trains no more and gives the same network
+    net2, _, errors2 = T.train(first, meshes, TINY)
+    assert errors2 == errors
+
+
+def test_too_few_lights_to_hold_one_block_out_are_refused():
+    with pytest.raises(ValueError, match="at least two"):
+        T.TrainConfig(lights=4, block=8)
+
+
+def test_train_renderer_command(tmp_path):
+    from weavecap.cli.main import cli
+
+    runner = CliRunner()
+    result = runner.invoke(cli, ["train-renderer"])
+    assert result.exit_code == 2 and "--fold" in result.output
+    target = tmp_path / "w.json"
+    target.write_text("{}")
+    result = runner.invoke(cli, ["train-renderer", "--fold", "-o", str(target), "--work", str(tmp_path / "w")])
+    assert result.exit_code == 2 and "--force" in result.output  # nothing overwritten without --force
+    assert json.loads(target.read_text()) == {}

@@ -1,0 +1,85 @@
+"""Neighbourhood visibility: view samples, probes (§2.2) and ASG lobes (§2.1)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from weavecap.render.fold import visibility as Vis
+from weavecap.render.fold.descriptors import compute_descriptors
+from weavecap.render.fold.localpt import mi
+
+from .shapes import diffuse, heightfield, mesh_shape
+from .test_localpt import groove, wall_view_factor
+
+
+def scene_with(v, f, desc):
+    garment = mesh_shape(v, f, normals=desc.normals, bsdf=diffuse(0.6), name="garment")
+    return mi.load_dict({"type": "scene", "garment": garment}), garment
+
+
+def test_hat_points_lie_on_the_vertexs_faces_weighted_towards_it():
+    v, f = heightfield(lambda x, y: 0.1 * np.sin(3 * x), n=21)
+    n = np.tile([0.0, 0.0, 1.0], (len(v), 1))
+    at = np.array([0, 10, 220, 440])  # a corner, an edge, the middle, the far corner
+    pts, nrm, faces = Vis.hat_points(v, f, n, at, 400, np.random.default_rng(0))
+    for row, i in enumerate(at):
+        assert np.all(np.any(f[faces[row]] == i, axis=1))  # every sample on a face of the vertex
+        corners = v[f[faces[row]]]  # (count, 3, 3)
+        # barycentric coordinate of the vertex: distance to the opposite edge's line, by area ratio
+        own = np.argmax(f[faces[row]] == i, axis=1)
+        a = corners[np.arange(400), own]
+        b = corners[np.arange(400), (own + 1) % 3]
+        c = corners[np.arange(400), (own + 2) % 3]
+        full = np.linalg.norm(np.cross(b - a, c - a), axis=1)
+        part = np.linalg.norm(np.cross(b - pts[row], c - pts[row]), axis=1)
+        assert abs(np.mean(part / full) - 0.5) < 0.03  # Beta(2, 2) has mean 1/2
+
+
+def test_a_plane_has_no_lit_neighbourhood():
+    v, f = heightfield(lambda x, y: 0 * x, n=11)
+    desc = compute_descriptors(v, f, radius=0.4)
+    scene, garment = scene_with(v, f, desc)
+    nb = Vis.neighbourhood_samples(scene, garment, v, f, desc, 0, 32, seed=0)
+    assert not nb.found.any()
+    assert np.all(Vis.lit_share(scene, nb, np.array([0.0, 0.0, 1.0]), desc.radius) == 0.0)
+    assert Vis.lit_share(scene, nb, np.array([0.0, 0.0, 1.0]), desc.radius).shape == (len(v), 2)
+
+
+def test_lit_share_in_a_groove_is_the_view_factor_times_the_walls_cosine():
+    v, f = groove()
+    desc = compute_descriptors(v, f, radius=10.0)
+    scene, garment = scene_with(v, f, desc)
+    wanted = np.array([-0.2, -0.5, -0.8])  # x of vertices on the x < 0 wall, at y = 0
+    at = np.array([np.argmin(np.linalg.norm(v[:, :2] - [x, 0.0], axis=1)) for x in wanted])
+    nb = Vis.neighbourhood_samples(scene, garment, v, f, desc, 0, 20000, seed=1, at=at)
+    share = Vis.lit_share(scene, nb, np.array([0.0, 0.0, 1.0]), desc.radius)
+    # lit from above, the walls' far sides are dark: nothing comes through
+    assert np.all(share[:, 1] == 0.0)
+    below = Vis.lit_share(scene, nb, np.array([0.0, 0.0, -1.0]), desc.radius)
+    np.testing.assert_allclose(below[:, 1], share[:, 0], rtol=0.05)  # lit from below: the same walls, through
+    assert np.all(below[:, 0] == 0.0)
+    share = share[:, 0]
+    # the samples start on the vertex's faces (a hat around it), not at it: average the view
+    # factor over the same spread along the wall (Beta(2, 2) of a face's width either side)
+    rng = np.random.default_rng(0)
+    edge = np.sqrt(2) * 0.05
+    expected = []
+    for i in at:
+        s0 = np.hypot(v[i, 0], v[i, 2])
+        spread = s0 + (1 - rng.beta(2, 2, 4000)) * edge * rng.choice([-1, 1], 4000)
+        expected.append(np.mean([wall_view_factor(x) for x in np.clip(spread, 1e-3, None)]))
+    np.testing.assert_allclose(share, np.array(expected) * np.cos(np.pi / 4), rtol=0.05)
+
+
+def test_asg_fit_recovers_a_lobe():
+    rng = np.random.default_rng(0)
+    dirs = Vis.fibonacci_sphere(64)
+    normal = np.tile([0.0, 0.0, 1.0], (20, 1))
+    z = rng.normal(size=(20, 1, 3)) + [0, 0, 2.0]
+    truth = np.concatenate([z / np.linalg.norm(z, axis=-1, keepdims=True), np.full((20, 1, 2), [3.0, 8.0]),
+                            np.full((20, 1, 1), 0.7)], axis=-1)
+    target = np.stack([Vis.asg_value(truth, normal, np.broadcast_to(d, (20, 3))) for d in dirs], axis=1)
+    direct = np.zeros_like(target)
+    fit = Vis.fit_asg(direct, target, normal, dirs, lobes=2, steps=150)
+    again = np.stack([Vis.asg_value(fit.astype(float), normal, np.broadcast_to(d, (20, 3))) for d in dirs], axis=1)
+    assert np.sqrt(np.mean((again - target) ** 2)) < 0.01 * target.max()  # measured 0.0003

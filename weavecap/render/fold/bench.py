@@ -1,0 +1,357 @@
+"""The fold renderer's section of ``weavecap bench --render``: error against LocalPT and PT, time.
+
+Every image is ``weavecap render`` of one fabric (:data:`FABRIC`, a light satin, so that folds
+return much light) under the ``sun`` light (a directional sun and a uniform sky), seen from a
+view that looks into the folds, at :data:`SIZE`:
+
+- *direct*: ``--mode direct --fold off`` at :data:`REF_SPP`;
+- *direct + fold*: the same with the fold term (``--fold on``: the image above plus the term);
+- *LocalPT*: the direct image plus LocalPT's local inter-reflection alone
+  (:mod:`.localpt`, ``direct=False``, same r) at :data:`REF_SPP` — so the direct light is the
+  same in both and the errors are the fold term's (LocalPT's bounces treat the fabric as opaque:
+  its gaps' null transmission is not followed there);
+- *PT*: ``--mode reference --max-depth 16`` at :data:`REF_SPP`, what a user compares with.
+
+RMSE is taken over the garment's pixels (linear radiance). LocalPT's local light is rendered as
+two halves of :data:`REF_SPP` / 2 samples with different seeds: their mean is the reference and
+half their RMS difference the reference's own noise (an RMSE against it cannot go below that). *Equal time*: LocalPT (direct +
+local) at the largest spp that renders within the time of direct + fold at :data:`SPP`, both
+against the reference. *Seen* meshes are the fixture meshes of the shapes trained on (at the
+fixtures' own, coarser tessellation); *unseen*: the towel of ``../shared/meshes`` (without
+the head under it) and :func:`crumpled_sheet`, folds in random directions, made here. The
+frame time (:func:`frame_time`): one 1280×720 direct render at 64 spp, with and without the
+fold term, in one process, on the towel and the skirt.
+
+The default run keeps to minutes: five seen and two unseen meshes at 192×108 (``quick``: one
+of each).
+"""
+
+from __future__ import annotations
+
+import math
+import tempfile
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from ...fixtures import path as fixture_path
+
+FABRIC = fixture_path("params", "satin_5.json")
+LIGHT = "sun"
+SIZE = (192, 108)
+REF_SPP = 512
+SPP = 64
+PT_DEPTH = 16
+SHARED_MESHES = Path(__file__).resolve().parents[3] / ".." / "shared" / "meshes"
+SEEN = {"sine_high": (0.0, 35.0), "horseshoe_narrow": (0.0, 30.0), "wave": (20.0, 40.0), "skirt": (30.0, 10.0),
+        "drape": (30.0, 30.0)}
+UNSEEN = {"towel": (0.0, 50.0), "crumpled": (20.0, 45.0)}
+QUICK = ("sine_high", "crumpled")
+
+
+def crumpled_sheet(size: float = 0.3, cells: int = 120, *, seed: int = 7):
+    """A sheet with folds in random directions (an unseen mesh): z = Σ_k A_k sin(2π x_k/λ_k) g_k,
+    eight ridges of random orientation, wavelength 3–7 cm and amplitude 2–7 mm, each under a
+    Gaussian window of 5–9 cm at a random place. Metres, faces counter-clockwise from +z."""
+    from ..shapes import Shape, _grid_faces
+
+    rng = np.random.default_rng(seed)
+    n = cells + 1
+    x, y = np.meshgrid(np.linspace(-size / 2, size / 2, n), np.linspace(-size / 2, size / 2, n))
+    z = np.zeros_like(x)
+    for _ in range(8):
+        theta, lam = rng.uniform(0, np.pi), rng.uniform(0.03, 0.07)
+        amp, width = rng.uniform(0.002, 0.007), rng.uniform(0.05, 0.09)
+        cx, cy = rng.uniform(-size / 3, size / 3, 2)
+        along = (x - cx) * np.cos(theta) + (y - cy) * np.sin(theta)
+        z += amp * np.sin(2 * np.pi * along / lam) * np.exp(-((x - cx) ** 2 + (y - cy) ** 2) / (2 * width**2))
+    positions = np.stack([x.ravel(), y.ravel(), z.ravel()], axis=1)
+    return Shape("crumpled", positions, _grid_faces(n, n), positions[:, :2] + size / 2,
+                 f"crumpled sheet {size * 100:g} cm, eight random folds (seed {seed})")
+
+
+def bench_meshes(quick: bool, folder: Path) -> list[tuple[str, Path, tuple, bool]]:
+    """(name, path, view, seen) of every mesh measured."""
+    out = []
+    for name, view in SEEN.items():
+        if not quick or name in QUICK:
+            out.append((name, fixture_path("meshes", f"{name}.obj"), view, True))
+    towel = SHARED_MESHES / "towel.obj"
+    if towel.is_file() and not quick:
+        out.append(("towel", towel.resolve(), UNSEEN["towel"], False))
+    path = folder / "crumpled.obj"
+    path.write_text(crumpled_sheet().obj_text("weavecap.render.fold.bench.crumpled_sheet()"))
+    out.append(("crumpled", path, UNSEEN["crumpled"], False))
+    return out
+
+
+def _localpt_mode(radius: float):
+    """A render mode of the surface model through LocalPT's local inter-reflection alone."""
+    from ..modes import MODES, Mode
+    from . import localpt  # noqa: F401  (registers "localpt")
+
+    return Mode("fold-localpt", "LocalPT, local inter-reflection only", bsdf=MODES["direct"].bsdf,
+                integrator=lambda lighting, options: {"type": "localpt", "radius": float(radius), "direct": False,
+                                                      "max_depth": PT_DEPTH, "rr_depth": 5})
+
+
+def _render(fabric, mesh, options):
+    from ..run import render_fabric
+
+    t = time.perf_counter()
+    result = render_fabric(fabric, mesh, options)
+    return result.image.astype(np.float64), time.perf_counter() - t, result.info
+
+
+def _timed(fn, *args, **kwargs):
+    t = time.perf_counter()
+    out = fn(*args, **kwargs)
+    return out, time.perf_counter() - t
+
+
+def garment_mask(*images: np.ndarray) -> np.ndarray:
+    """Pixels of the garment: those not equal to the background (the sky a camera ray meets
+    unchanged, the same in every image), which is the most common value of the first image."""
+    flat = images[0].reshape(-1, 3)
+    values, counts = np.unique(np.round(flat, 7), axis=0, return_counts=True)
+    background = values[np.argmax(counts)]
+    return np.any(np.abs(np.round(images[0], 7) - background) > 0, axis=2)
+
+
+def rmse(a: np.ndarray, b: np.ndarray, mask: np.ndarray) -> float:
+    return float(np.sqrt(np.mean((a[mask] - b[mask]) ** 2)))
+
+
+def measure_mesh(name: str, path: Path, view, seen: bool, *, folder: Path, progress=None) -> dict:
+    """Every image and error of one mesh (see the module docstring)."""
+    from ... import params
+    from .. import modes
+    from ..mesh import load_mesh
+    from ..run import RenderOptions, prepare_render, render_passes
+    from . import term
+    from .descriptors import cached_descriptors
+
+    say = progress or (lambda m: None)
+    fabric = params.load(FABRIC)
+    mesh = load_mesh(path)
+    desc, radius, _ = cached_descriptors(mesh.positions, mesh.faces, normals=mesh.normals)
+    base = RenderOptions(mode="direct", spp=REF_SPP, size=SIZE, view=view, light=LIGHT, fold="off", seed=1)
+    scene = prepare_render(fabric, mesh, base).scene
+    say(f"fold bench: {name}: direct, fold term")
+    direct, t_direct = _timed(render_passes, scene, REF_SPP, 1)
+    (fold, info), t_fold = _timed(term.fold_light, scene, mesh, seed=1)
+    (fold_k4, _), t_fold_k4 = _timed(term.fold_light, scene, mesh, seed=1, neighbours=4)
+    fold_asg = None
+    if seen:
+        garment = term.garment_of(scene)
+        asg, t_asg_fit = _timed(term.mesh_asg, scene, garment, mesh.positions, mesh.faces, desc)
+        (fold_asg, _), t_fold_asg = _timed(term.fold_light, scene, mesh, seed=1, asg=asg)
+    modes.register_mode(_localpt_mode(radius.value))
+    try:
+        local_scene = prepare_render(fabric, mesh, replace(base, mode="fold-localpt")).scene
+    finally:
+        modes.MODES.pop("fold-localpt", None)
+    say(f"fold bench: {name}: LocalPT")
+    # two halves of different seeds: their mean is the reference, their difference its own noise
+    (half_a, t_a), (half_b, t_b) = (_timed(render_passes, local_scene, REF_SPP // 2, s) for s in (1, 2))
+    local, t_local = (half_a + half_b) / 2, t_a + t_b
+    say(f"fold bench: {name}: PT")
+    pt_scene = prepare_render(fabric, mesh, replace(base, mode="reference", max_depth=PT_DEPTH)).scene
+    pt, t_pt = _timed(render_passes, pt_scene, REF_SPP, 1)
+    # equal time: direct at SPP + the fold term, against LocalPT (direct + local) in the same time
+    fast, t_fast = _timed(render_passes, scene, SPP, 2)
+    budget = t_fast + t_fold
+    k = max(1, int(budget / ((t_direct + t_local) / REF_SPP)))
+    say(f"fold bench: {name}: LocalPT at equal time ({k} spp)")
+    eq_direct, t_eq1 = _timed(render_passes, scene, k, 3)
+    eq_local, t_eq2 = _timed(render_passes, local_scene, k, 3)
+    reference = direct + local
+    mask = garment_mask(direct, pt)
+    errors = {"direct": rmse(direct, reference, mask), "direct_fold": rmse(direct + fold, reference, mask),
+              "direct_fold_k4": rmse(direct + fold_k4, reference, mask)}
+    if fold_asg is not None:
+        errors["direct_fold_asg"] = rmse(direct + fold_asg, reference, mask)
+    row = {
+        "mesh": name, "seen": seen, "vertices": int(len(mesh.positions)), "view": list(view),
+        "radius_m": radius.value, "pixels": int(mask.sum()),
+        "folded_share": float(desc.folded.any(axis=1).mean()),
+        "local_rms": float(np.sqrt(np.mean(local[mask] ** 2))),
+        "reference_noise": rmse(half_a, half_b, mask) / 2,  # RMS noise of the LocalPT reference (mean of halves)
+        "rmse_localpt": errors,
+        "rmse_pt": {"direct": rmse(direct, pt, mask), "direct_fold": rmse(direct + fold, pt, mask)},
+        "equal_time": {"spp_fold": SPP, "seconds_fold": budget, "spp_localpt": k, "seconds_localpt": t_eq1 + t_eq2,
+                       "rmse_fold": rmse(fast + fold, reference, mask),
+                       "rmse_localpt": rmse(eq_direct + eq_local, reference, mask)},
+        "seconds": {"direct": t_direct, "fold": t_fold, "fold_k4": t_fold_k4, "localpt": t_local, "pt": t_pt,
+                    **({"asg_fit": t_asg_fit, "fold_asg": t_fold_asg} if seen else {})},
+        "fold_detail": info,
+    }
+    np.savez_compressed(folder / f"{name}.npz", direct=direct.astype(np.float32),
+                        fold=(direct + fold).astype(np.float32), localpt=reference.astype(np.float32),
+                        pt=pt.astype(np.float32), mask=mask)
+    return row
+
+
+def frame_time(name: str, path: Path, view, *, progress=None) -> dict:
+    """One 1280×720 direct frame at 64 spp, without and with the fold term, in this process."""
+    from ... import params
+    from ..mesh import load_mesh
+    from ..run import RenderOptions
+
+    fabric = params.load(FABRIC)
+    mesh = load_mesh(path)
+    options = RenderOptions(mode="direct", spp=64, size=(1280, 720), view=view, light=LIGHT, fold="off", seed=1)
+    if progress:
+        progress(f"fold bench: {name}: 1280×720 frame")
+    _render(fabric, mesh, replace(options, size=(64, 36), spp=4, fold="on"))  # compile every kernel first
+    _, t_off, info_off = _render(fabric, mesh, options)
+    _, t_on, info_on = _render(fabric, mesh, replace(options, fold="on"))
+    fold = info_on["timings"]["fold"]
+    return {"mesh": name, "frame_seconds": info_off["timings"]["total"], "fold_seconds": fold,
+            "ratio": fold / info_off["timings"]["total"], "render_seconds": info_off["timings"]["render"],
+            "fold_detail": info_on["fold_detail"]}
+
+
+def run(quick: bool = False, progress=None, folder: Path | None = None) -> dict:
+    """Every mesh's row, and the frame times."""
+    folder = Path(folder) if folder is not None else Path(tempfile.mkdtemp(prefix="weavecap-fold-bench-"))
+    folder.mkdir(parents=True, exist_ok=True)
+    rows = [measure_mesh(name, path, view, seen, folder=folder, progress=progress)
+            for name, path, view, seen in bench_meshes(quick, folder)]
+    frames = []
+    towel = SHARED_MESHES / "towel.obj"
+    for name, path, view in ([("towel", towel, UNSEEN["towel"])] if towel.is_file() else []) + \
+            ([] if quick else [("skirt", fixture_path("meshes", "skirt.obj"), SEEN["skirt"])]):
+        frames.append(frame_time(name, path, view, progress=progress))
+    return {"meshes": rows, "frames": frames, "folder": str(folder)}
+
+
+def summary(result: dict) -> dict:
+    """The done-when figures: ratios per mesh, seen and unseen means, the frame time ratio."""
+    rows = result["meshes"]
+
+    def mean(key, seen):
+        vals = [key(r) for r in rows if r["seen"] == seen]
+        return float(np.mean(vals)) if vals else math.nan
+
+    return {
+        "gain_over_direct": {r["mesh"]: r["rmse_localpt"]["direct"] / max(r["rmse_localpt"]["direct_fold"], 1e-12)
+                             for r in rows},
+        "closer_to_pt": {r["mesh"]: r["rmse_pt"]["direct_fold"] < r["rmse_pt"]["direct"] for r in rows},
+        "beats_localpt_equal_time": {r["mesh"]: r["equal_time"]["rmse_fold"] < r["equal_time"]["rmse_localpt"]
+                                     for r in rows},
+        "seen_rmse": mean(lambda r: r["rmse_localpt"]["direct_fold"], True),
+        "unseen_rmse": mean(lambda r: r["rmse_localpt"]["direct_fold"], False),
+        "seen_relative": mean(lambda r: r["rmse_localpt"]["direct_fold"] / r["local_rms"], True),
+        "unseen_relative": mean(lambda r: r["rmse_localpt"]["direct_fold"] / r["local_rms"], False),
+        "frame_ratio": {f["mesh"]: f["ratio"] for f in result["frames"]},
+    }
+
+
+def table(result: dict) -> str:
+    """Markdown: per mesh, then the supplement's Tables 3 and 6 in our terms, then frame time."""
+    rows = result["meshes"]
+    s = summary(result)
+    lines = ["| mesh | seen | r (mm) | local light RMS | its noise | RMSE vs LocalPT: direct | direct + fold | gain | "
+             "RMSE vs PT: direct | direct + fold | equal time: fold (spp) | LocalPT (spp) |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        e, p, q = r["rmse_localpt"], r["rmse_pt"], r["equal_time"]
+        lines.append(f"| {r['mesh']} | {'yes' if r['seen'] else 'no'} | {r['radius_m'] * 1000:.0f} | "
+                     f"{r['local_rms']:.5f} | {r['reference_noise']:.5f} | {e['direct']:.5f} | {e['direct_fold']:.5f} | "
+                     f"{e['direct'] / max(e['direct_fold'], 1e-12):.2f}× | {p['direct']:.5f} | {p['direct_fold']:.5f} | "
+                     f"{q['rmse_fold']:.5f} ({q['spp_fold']}) | {q['rmse_localpt']:.5f} ({q['spp_localpt']}) |")
+    lines += ["", "Table 3 form (architecture):", "",
+              "| Architecture | Representation | Seen RMSE | Unseen RMSE | Time (s) | Params |", "|---|---|---|---|---|---|"]
+    times = [r["seconds"]["fold"] for r in rows]
+    params = next((r["fold_detail"]["weights_parameters"] for r in rows if r["fold_detail"]), 0)
+    lines.append(f"| Factorized | SH (3 bands) | {s['seen_rmse']:.5f} | {s['unseen_rmse']:.5f} | "
+                 f"{np.mean(times):.2f} | {params / 1000:.1f}K |")
+    seen_direct = np.mean([r["rmse_localpt"]["direct"] for r in rows if r["seen"]])
+    unseen_direct = np.mean([r["rmse_localpt"]["direct"] for r in rows if not r["seen"]])
+    lines.append(f"| (direct lighting alone) | — | {seen_direct:.5f} | {unseen_direct:.5f} | — | — |")
+    lines += ["", f"Unseen / seen RMSE: {s['unseen_rmse'] / s['seen_rmse']:.2f} (absolute), "
+                  f"{s['unseen_relative'] / s['seen_relative']:.2f} (relative to each mesh's local light)"]
+    lines += ["", "Table 6 form (visibility):", "", "| Method | Configuration | Seen/Unseen | RMSE | Time (s) |",
+              "|---|---|---|---|---|"]
+
+    def mean_of(key, seen, seconds):
+        sel = [r for r in rows if r["seen"] == seen and key in r["rmse_localpt"]]
+        if not sel:
+            return None
+        return (np.mean([r["rmse_localpt"][key] for r in sel]), np.mean([r["seconds"][seconds] for r in sel]))
+
+    for label, config, key, seconds in (("ASG (fitted)", "2 lobes", "direct_fold_asg", "fold_asg"),
+                                        ("Sampling", "4 view samples", "direct_fold_k4", "fold_k4"),
+                                        ("Sampling", "32 view samples", "direct_fold", "fold")):
+        for seen in (True, False):
+            got = mean_of(key, seen, seconds)
+            if got is not None:
+                lines.append(f"| {label} | {config} | {'Seen' if seen else 'Unseen'} | {got[0]:.5f} | {got[1]:.2f} |")
+    lines += ["", "| 1280×720 frame | direct, 64 spp (s) | fold term (s) | ratio |", "|---|---|---|---|"]
+    for f in result["frames"]:
+        lines.append(f"| {f['mesh']} | {f['frame_seconds']:.1f} | {f['fold_seconds']:.2f} | {f['ratio'] * 100:.0f} % |")
+    return "\n".join(lines)
+
+
+def _register() -> None:
+    """Add this section to ``weavecap bench --render`` (which imports this module)."""
+    from ..bench import Section, register_section
+
+    register_section(Section("fold", f"Fold renderer against LocalPT and PT ({SIZE[0]}×{SIZE[1]}, {REF_SPP} spp, "
+                                     f"{LIGHT} light)", run, table))
+
+
+
+def picture(folder: Path, names: list[str], out: Path) -> Path:
+    """A PNG of one row per mesh: direct | direct + fold | LocalPT | PT, each row at one exposure
+    (its PT's 99th percentile on the garment to 0.9), labelled."""
+    from PIL import Image, ImageDraw
+
+    from ...io import atomic_path
+    from ...photo import linear_to_srgb
+
+    labels = ("direct", "direct + fold", "LocalPT", "PT")
+    rows = [np.load(Path(folder) / f"{name}.npz") for name in names]
+    h, w = rows[0]["direct"].shape[:2]
+    gap, label = 4, 14
+    sheet = Image.new("RGB", (4 * w + 5 * gap, len(rows) * (h + label + gap) + gap), (24, 24, 24))
+    draw = ImageDraw.Draw(sheet)
+    for r, (name, data) in enumerate(zip(names, rows)):
+        scale = 0.9 / max(float(np.percentile(data["pt"][data["mask"]], 99)), 1e-6)
+        for c, key in enumerate(("direct", "fold", "localpt", "pt")):
+            x, y = gap + c * (w + gap), gap + r * (h + label + gap)
+            srgb = linear_to_srgb(np.clip(data[key] * scale, 0.0, 1.0))
+            sheet.paste(Image.fromarray(np.clip(np.round(srgb * 255), 0, 255).astype(np.uint8)), (x, y))
+            draw.text((x + 2, y + h + 1), f"{name}: {labels[c]}" if c == 0 else labels[c], fill=(230, 230, 230))
+    with atomic_path(out) as tmp:
+        sheet.save(tmp, format="PNG")
+    return out
+
+
+def main(argv: list[str] | None = None) -> None:
+    """``python -m weavecap.render.fold.bench OUT [--quick]``: this section alone, as ``weavecap
+    bench --render`` runs it; writes OUT/fold.json, OUT/fold.md and OUT/fold.png."""
+    import json
+    import sys
+
+    from ...io import atomic_write_text
+
+    args = list(sys.argv[1:] if argv is None else argv)
+    quick = "--quick" in args
+    out = Path(next(a for a in args if not a.startswith("--")))
+    out.mkdir(parents=True, exist_ok=True)
+    result = run(quick, progress=lambda m: print(m, file=sys.stderr, flush=True), folder=out / "images")
+    atomic_write_text(out / "fold.json", json.dumps({**result, "summary": summary(result)}, indent=1) + "\n")
+    atomic_write_text(out / "fold.md", table(result) + "\n")
+    shown = [r["mesh"] for r in result["meshes"] if r["mesh"] in ("sine_high", "skirt", "towel", "crumpled")]
+    picture(out / "images", shown or [result["meshes"][0]["mesh"]], out / "fold.png")
+    print(table(result))
+
+
+_register()
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,280 @@
+"""Neighbourhood visibility V̄_N(x_o, ω_i) (supplement §2): sampled, and ASG lobes.
+
+V̄_N is the share of the neighbourhood N(x_o) that a light in direction ω_i reaches. Two ways:
+
+- *View samples* (what the fold term uses; training-free, any mesh; the supplement's §2.2
+  heuristic casts N_s probe rays down onto N(x_o) from above instead — see docs/fold.md): rays leave points of the
+  vertex's faces in cosine-distributed directions and keep the garment points they meet within
+  r (:func:`neighbourhood_samples`); V̄ = their share lit, each weighted by how squarely it faces
+  the light, on the side x_o sees and on the far side, whose light a translucent fabric lets
+  through (:func:`lit_share`). Up to the albedos this is the local irradiance of one bounce.
+- *ASG* (§2.1): anisotropic spherical Gaussians per vertex and side (6 parameters each: lobe
+  axis z, bandwidths σ_x, σ_y, amplitude C; eq. 2), fitted to sampled V̄ over many directions
+  (:func:`fit_asg`; the supplement learns them jointly with the BLIDF).
+
+Everything is evaluated per vertex, batched over all vertices in one Mitsuba ray query.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ...backend import mitsuba
+from .descriptors import Descriptors, tangent_frame
+
+mi = mitsuba()
+import drjit as dr  # noqa: E402  (after the backend chose libLLVM)
+
+SIDES = (1.0, -1.0)  # front (along the vertex normal), back
+
+
+def _vec3(a: np.ndarray, kind):
+    a = np.ascontiguousarray(np.asarray(a, np.float64).reshape(-1, 3).T.astype(np.float32))
+    return kind(*a)
+
+
+def _np3(v) -> np.ndarray:
+    return np.stack([np.asarray(v[k], np.float64) for k in range(3)], axis=-1)
+
+
+def ray_offset(radius: float, points: np.ndarray) -> float:
+    """How far off a surface shadow and probe rays start (scene units)."""
+    return 1e-4 * radius + 1e-6 * float(np.max(np.abs(points))) if len(points) else 1e-4 * radius
+
+
+def lit(scene: "mi.Scene", points: np.ndarray, normals: np.ndarray, to_light: np.ndarray, radius: float) -> np.ndarray:
+    """Whether each point is lit from ``to_light``: facing it and unoccluded (bool, shape of points[..., 0]).
+
+    points, normals : (..., 3); to_light : (..., 3) unit directions towards the light (broadcast).
+    """
+    shape = points.shape[:-1]
+    to_light = np.broadcast_to(to_light, points.shape)
+    facing = np.einsum("...k,...k->...", normals, to_light) > 0
+    eps = ray_offset(radius, points.reshape(-1, 3))
+    origin = points + eps * normals
+    ray = mi.Ray3f(_vec3(origin, mi.Point3f), _vec3(to_light, mi.Vector3f))
+    blocked = np.asarray(scene.ray_test(ray)).reshape(shape)
+    return facing & ~blocked
+
+
+@dataclass(frozen=True)
+class Neighbours:
+    """Points of each vertex's neighbourhood that its surroundings see, on one side.
+
+    Attributes
+    ----------
+    points, normals : (V, K, 3) float64 — hits of the rays, normals turned towards the ray
+    found : (V, K) bool — the ray met the garment within r of the vertex
+    albedo : (V, K, 3) float64 — the garment's albedo there (0 where not found)
+    """
+
+    points: np.ndarray
+    normals: np.ndarray
+    found: np.ndarray
+    albedo: np.ndarray
+
+    def take(self, rows) -> "Neighbours":
+        return Neighbours(self.points[rows], self.normals[rows], self.found[rows], self.albedo[rows])
+
+
+def incident_faces(faces: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """CSR incidence of a mesh: (start (V+1,), face (3F,), slot (3F,)) — vertex i is corner
+    ``slot[j]`` of face ``face[j]`` for j in start[i]:start[i+1]."""
+    flat = np.asarray(faces).ravel()
+    order = np.argsort(flat, kind="stable")
+    start = np.concatenate([[0], np.cumsum(np.bincount(flat, minlength=count))])
+    return start, order // 3, order % 3
+
+
+def hat_points(vertices: np.ndarray, faces: np.ndarray, normals: np.ndarray, at: np.ndarray, count: int,
+               rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``count`` points per vertex on its faces, with the density of its linear hat function.
+
+    A face is drawn in proportion to its area, then the vertex's barycentric coordinate from
+    Beta(2, 2) (area density × the coordinate itself) and the other two uniformly: so a value
+    averaged over these points is what barycentric interpolation of per-vertex values
+    reproduces best. Returns points (A, count, 3), interpolated unit normals (A, count, 3) and
+    faces (A, count); a vertex on no face gets itself.
+    """
+    v = np.asarray(vertices, np.float64)
+    f = np.asarray(faces, np.int64)
+    start, face, slot = incident_faces(f, len(v))
+    area = 0.5 * np.linalg.norm(np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]), axis=1)
+    cum = np.concatenate([[0.0], np.cumsum(area[face] + 1e-30)])
+    lo, hi = cum[start[at]], cum[start[at + 1]]
+    pick = np.searchsorted(cum, lo[:, None] + rng.random((len(at), count)) * (hi - lo)[:, None], side="right") - 1
+    lonely = start[at + 1] == start[at]
+    pick = np.clip(pick, start[at][:, None], np.maximum(start[at + 1] - 1, start[at])[:, None])
+    pick = np.where(lonely[:, None], 0, pick)
+    fi, si = face[pick], slot[pick]
+    corners = f[fi]  # (A, count, 3)
+    own = np.take_along_axis(corners, si[..., None], axis=2)[..., 0]
+    nxt = np.take_along_axis(corners, ((si + 1) % 3)[..., None], axis=2)[..., 0]
+    prv = np.take_along_axis(corners, ((si + 2) % 3)[..., None], axis=2)[..., 0]
+    b0 = rng.beta(2.0, 2.0, (len(at), count))
+    u = rng.random((len(at), count))
+    b1, b2 = (1 - b0) * u, (1 - b0) * (1 - u)
+    points = b0[..., None] * v[own] + b1[..., None] * v[nxt] + b2[..., None] * v[prv]
+    nrm = b0[..., None] * normals[own] + b1[..., None] * normals[nxt] + b2[..., None] * normals[prv]
+    nrm /= np.maximum(np.linalg.norm(nrm, axis=-1, keepdims=True), 1e-12)
+    points = np.where(lonely[:, None, None], v[at][:, None], points)
+    nrm = np.where(lonely[:, None, None], normals[at][:, None], nrm)
+    return points, nrm, np.where(lonely[:, None], -1, fi)
+
+
+def cosine_directions(normal: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """One cosine-distributed unit direction about each normal (..., 3)."""
+    shape = normal.shape
+    n = normal.reshape(-1, 3)
+    t, b = tangent_frame(n)
+    u = rng.random((len(n), 2))
+    r, phi = np.sqrt(u[:, 0]), 2 * np.pi * u[:, 1]
+    d = (r * np.cos(phi))[:, None] * t + (r * np.sin(phi))[:, None] * b + np.sqrt(1 - u[:, :1]) * n
+    return (d / np.linalg.norm(d, axis=1, keepdims=True)).reshape(shape)
+
+
+def _albedo_at(si) -> np.ndarray:
+    """The BSDF's albedo at hits: its ``"ambient"`` attribute if it has one (the surface model),
+    else its diffuse reflectance."""
+    bsdf = si.bsdf()
+    has = bsdf.has_attribute("ambient", si.is_valid())
+    value = dr.select(has, bsdf.eval_attribute_3("ambient", si, si.is_valid() & has),
+                      bsdf.eval_diffuse_reflectance(si, si.is_valid()))
+    return _np3(value)
+
+
+def neighbourhood_samples(scene: "mi.Scene", shape: "mi.Shape", vertices: np.ndarray, faces: np.ndarray,
+                          desc: Descriptors, side: int, count: int, *, seed: int = 0, at=None) -> Neighbours:
+    """``count`` points per vertex of the neighbourhood its surroundings see, on ``side``.
+
+    Each ray leaves a point of the vertex's faces (:func:`hat_points`) in a cosine-distributed
+    direction about the side's normal there; where it meets the garment within r of the vertex
+    (not the face it left) it found a neighbour. This samples N(x_o) as the light it sends
+    towards x_o's surroundings is weighted: by what they see of it. Geometry only — the
+    same samples serve every light.
+    """
+    at = np.arange(len(vertices)) if at is None else np.asarray(at)
+    rng = np.random.default_rng(seed)
+    r = desc.radius
+    sign = SIDES[side]
+    v = np.asarray(vertices, np.float64)
+    origin, normal, face = hat_points(v, faces, sign * desc.normals.astype(np.float64), at, count, rng)
+    direction = cosine_directions(normal, rng)
+    eps = ray_offset(r, v)
+    ray = mi.Ray3f(_vec3(origin + eps * normal, mi.Point3f), _vec3(direction, mi.Vector3f))
+    ray.maxt = mi.Float(2.0 * r)
+    si = scene.ray_intersect(ray)
+    found = np.asarray(si.is_valid() & (si.shape == mi.ShapePtr(shape))).reshape(len(at), count)
+    p = _np3(si.p).reshape(len(at), count, 3)
+    n = _np3(si.sh_frame.n).reshape(len(at), count, 3)
+    prim = np.asarray(si.prim_index).reshape(len(at), count)
+    found &= (np.linalg.norm(p - v[at][:, None], axis=-1) < r) & (prim != face)
+    n = np.where((np.einsum("vkj,vkj->vk", n, direction) > 0)[..., None], -n, n)
+    albedo = np.where(found[..., None], _albedo_at(si).reshape(len(at), count, 3), 0.0)
+    return Neighbours(points=p, normals=n, found=found, albedo=albedo)
+
+
+def lit_share(scene: "mi.Scene", nb: Neighbours, to_light: np.ndarray, radius: float) -> np.ndarray:
+    """V̄ (V, 2) in [0, 1]: the neighbour samples' share lit from ω_i, on the side x_o sees and through it.
+
+    Column 0: Σ_k [found, facing ω_i, unoccluded] (n_k·ω_i) / K — what a vertex's surroundings
+    see of its neighbourhood that the light reaches, each sample weighted by how squarely it
+    faces the light: with the cosine-distributed rays this is, up to the albedos, the local
+    irradiance of one bounce. Column 1: the same for samples lit on their far side (−n_k·ω_i > 0,
+    unoccluded that way) — light a translucent fabric lets through towards x_o (the surface
+    model transmits: its yarns' body transmission and its gaps).
+    """
+    d = np.asarray(to_light, np.float64)
+    d = np.broadcast_to(d[:, None] if d.ndim == 2 else d, nb.points.shape)
+    cos = np.einsum("vkj,vkj->vk", nb.normals, d)
+    front = lit(scene, nb.points, nb.normals, d, radius) & nb.found
+    back = lit(scene, nb.points, -nb.normals, d, radius) & nb.found
+    return np.stack([(front * np.clip(cos, 0.0, None)).mean(axis=1), (back * np.clip(-cos, 0.0, None)).mean(axis=1)],
+                    axis=1)
+
+
+# --------------------------------------------------------------------------- ASG
+
+def asg_axes(z: np.ndarray, normal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Tangent and bitangent axes (x, y) of lobes with axes ``z`` (..., 3), x in the plane of z and the normal."""
+    x = np.cross(np.cross(z, normal), z)
+    bad = np.linalg.norm(x, axis=-1) < 1e-6
+    if np.any(bad):
+        x[bad] = tangent_frame(z[bad])[0]
+    x /= np.linalg.norm(x, axis=-1, keepdims=True)
+    return x, np.cross(z, x)
+
+
+def asg_value(params: np.ndarray, normal: np.ndarray, to_light: np.ndarray) -> np.ndarray:
+    """Σ_l C max(ω·z, 0) exp(−σ_x (ω·x)² − σ_y (ω·y)²) (eq. 2).
+
+    params : (..., L, 6) — lobe axis z (3, normalised here), σ_x, σ_y, C; normal : (..., 3);
+    to_light : (..., 3) unit ω. Returns (...).
+    """
+    z = params[..., :3] / np.maximum(np.linalg.norm(params[..., :3], axis=-1, keepdims=True), 1e-12)
+    x, y = asg_axes(z, np.broadcast_to(normal[..., None, :], z.shape).copy())
+    w = to_light[..., None, :]
+    lobe = np.maximum(np.sum(w * z, -1), 0.0) * np.exp(-params[..., 3] * np.sum(w * x, -1) ** 2
+                                                        - params[..., 4] * np.sum(w * y, -1) ** 2)
+    return np.sum(params[..., 5] * lobe, axis=-1)
+
+
+def fibonacci_sphere(count: int) -> np.ndarray:
+    """``count`` nearly uniform unit directions (count, 3)."""
+    i = np.arange(count) + 0.5
+    z = 1 - 2 * i / count
+    phi = np.pi * (1 + 5**0.5) * i
+    s = np.sqrt(1 - z * z)
+    return np.stack([s * np.cos(phi), s * np.sin(phi), z], axis=1)
+
+
+def fit_asg(direct: np.ndarray, target: np.ndarray, normal: np.ndarray, directions: np.ndarray, *,
+            lobes: int = 2, steps: int = 300, seed: int = 0) -> np.ndarray:
+    """Fit ``lobes`` ASGs per vertex so that max(V, ΣASG) matches the sampled V̄ over directions.
+
+    Parameters
+    ----------
+    direct, target : (V, K) — the vertex's own visibility V and the sampled V̄ towards each of K
+        directions.
+    normal : (V, 3) — the side's vertex normals; directions : (K, 3) unit, towards the light.
+
+    Returns
+    -------
+    (V, lobes, 6) float32: z (3), σ_x, σ_y, C — the parameters of eq. 2.
+    """
+    import torch
+
+    gen = torch.Generator().manual_seed(seed)
+    V, K = target.shape
+    d = torch.as_tensor(directions, dtype=torch.float32)
+    nrm = torch.as_tensor(normal, dtype=torch.float32)
+    direct_t = torch.as_tensor(direct, dtype=torch.float32)
+    target_t = torch.as_tensor(target, dtype=torch.float32)
+    # start the lobes at the directions where the residual V̄ − V is largest, and around the normal
+    resid = np.clip(target - direct, 0, None)
+    order = np.argsort(-resid, axis=1)[:, :lobes]
+    z0 = directions[order] + 0.3 * normal[:, None]
+    z = torch.nn.Parameter(torch.as_tensor(z0, dtype=torch.float32)
+                           + 0.01 * torch.randn(V, lobes, 3, generator=gen))
+    log_sigma = torch.nn.Parameter(torch.full((V, lobes, 2), float(np.log(2.0))))
+    amp = torch.nn.Parameter(torch.full((V, lobes), 0.3))
+    opt = torch.optim.Adam([z, log_sigma, amp], lr=0.05)
+    for _ in range(steps):
+        zz = z / z.norm(dim=-1, keepdim=True).clamp_min(1e-6)
+        x = torch.cross(torch.cross(zz, nrm[:, None].expand_as(zz), dim=-1), zz, dim=-1)
+        x = x / x.norm(dim=-1, keepdim=True).clamp_min(1e-6)
+        y = torch.cross(zz, x, dim=-1)
+        dz = torch.einsum("vlk,dk->vld", zz, d)
+        dx = torch.einsum("vlk,dk->vld", x, d)
+        dy = torch.einsum("vlk,dk->vld", y, d)
+        sig = log_sigma.exp()
+        g = amp[..., None] * dz.clamp_min(0) * torch.exp(-sig[..., 0:1] * dx**2 - sig[..., 1:2] * dy**2)
+        pred = torch.maximum(direct_t, g.sum(dim=1))
+        loss = ((pred - target_t) ** 2).mean()
+        opt.zero_grad()
+        loss.backward()
+        opt.step()
+    out = torch.cat([(z / z.norm(dim=-1, keepdim=True).clamp_min(1e-6)), log_sigma.exp(), amp[..., None]], dim=-1)
+    return out.detach().numpy().astype(np.float32)
