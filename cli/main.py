@@ -28,6 +28,7 @@ COMMANDS = {
     "doctor": "weavecap.cli.doctor:doctor",
     "bench": "weavecap.cli.bench:bench",
     "train-initializer": "weavecap.cli.train_initializer:train_initializer",
+    "train-renderer": "weavecap.cli.train_renderer:train_renderer",
 }
 
 
