@@ -23,6 +23,7 @@ from weavecap.errors import WeavecapError, outcome
 COMMANDS = {
     "fit": "weavecap.cli.fit:fit",
     "synth": "weavecap.cli.synth:synth",
+    "render": "weavecap.cli.render:render",
     "export": "weavecap.cli.export:export",
     "prepare": "weavecap.cli.prepare:prepare",
     "doctor": "weavecap.cli.doctor:doctor",

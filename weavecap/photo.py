@@ -8,11 +8,15 @@ truncated, corrupt, too large (decompression bomb), too small, non-finite values
 :class:`~weavecap.errors.PhotoError` (exit status 3) with a message that names the file, says
 what is wrong and what to do about it.
 
-Decoding is done with OpenCV for JPEG/PNG/TIFF (OpenCV's wheel has no OpenEXR codec, so EXR
-goes through Mitsuba's ``Bitmap``) and rawpy for RAW. Image dimensions are read from the file
-header *before* decoding, so an oversized image is refused without allocating it. EXIF
-orientation is applied for JPEG and PNG by this module (OpenCV's TIFF decoder applies the TIFF
-orientation tag itself).
+Headers are read with the libraries made for them before anything is decoded, so an oversized
+image is refused without allocating it: Pillow's lazy ``Image.open`` for JPEG and PNG (size,
+EXIF orientation, its decompression-bomb guard at ``max_pixels``, a PNG's chunk CRCs), tifffile
+for TIFF (size, orientation, where the image data lies). Pixels are decoded by OpenCV for
+JPEG/PNG/TIFF — Pillow reduces 16-bit RGB to 8 bits, and tifffile needs the imagecodecs
+package for LZW, the usual TIFF compression — by Mitsuba's ``Bitmap`` for OpenEXR (which
+OpenCV's wheel lacks; its header is read here, no library reading only an EXR header being at
+hand) and by rawpy for RAW. This module applies the EXIF orientation to JPEG and PNG
+(OpenCV's TIFF decoder applies the TIFF orientation tag itself) and linearises 8/16-bit sRGB.
 
 Writing (:func:`save_png`, :func:`save_exr`, :func:`save_image`) always goes through
 :func:`weavecap.io.atomic_path`, so a half-written file never appears under the final name.
@@ -22,15 +26,19 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
+import io
+import logging
 import os
 import struct
 import sys
 import tempfile
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Iterator
 
 import numpy as np
+from PIL import ExifTags, Image
 
 os.environ.setdefault("OPENCV_IO_ENABLE_OPENEXR", "1")  # harmless where the codec is absent
 import cv2  # noqa: E402
@@ -178,7 +186,7 @@ class Photo:
 
 
 # --------------------------------------------------------------------------------------------
-# Header parsing (dimensions before decoding, EXIF orientation, truncation checks)
+# Headers (dimensions before decoding, orientation, truncation): Pillow, tifffile
 # --------------------------------------------------------------------------------------------
 
 
@@ -205,180 +213,112 @@ class _Header:
     orientation: int = 1
 
 
+_TIFF_MAGIC = (b"II*\x00", b"MM\x00*", b"II+\x00", b"MM\x00+")
+_EXR_MAGIC = b"\x76\x2f\x31\x01"
+
+
 def _sniff(data: bytes) -> str | None:
-    """The container format from the first bytes, or None."""
-    if data[:3] == b"\xff\xd8\xff":
-        return "jpeg"
-    if data[:8] == b"\x89PNG\r\n\x1a\n":
-        return "png"
-    if data[:4] in (b"II*\x00", b"MM\x00*", b"II+\x00", b"MM\x00+"):
+    """The container format: TIFF and OpenEXR by their magic numbers (tifffile and the EXR
+    reader take it from there), JPEG and PNG when Pillow identifies them; else None."""
+    if data[:4] in _TIFF_MAGIC:
         return "tiff"
-    if data[:4] == b"\x76\x2f\x31\x01":
+    if data[:4] == _EXR_MAGIC:
         return "exr"
-    return None
-
-
-_TIFF_TYPE_SIZE = {1: 1, 2: 1, 3: 2, 4: 4, 5: 8, 6: 1, 7: 1, 8: 2, 9: 4, 10: 8, 11: 4, 12: 8, 13: 4, 16: 8, 17: 8, 18: 8}
-_TIFF_INT_FMT = {1: "B", 3: "H", 4: "I", 13: "I", 16: "Q", 18: "Q", 6: "b", 8: "h", 9: "i", 17: "q"}
-
-
-def _tiff_ifd0(buf: bytes) -> dict[int, tuple[int, ...]]:
-    """Integer-valued tags of the first IFD of a TIFF structure (a TIFF file or an EXIF block).
-
-    Returns ``{tag: values}``; tags of non-integer types are skipped. Raises :class:`_Bad`
-    when the structure is cut short.
-    """
-    if len(buf) < 8:
-        raise _Bad("the TIFF header is cut short")
-    bo = {b"II": "<", b"MM": ">"}.get(buf[:2])
-    if bo is None:
-        raise _Bad("the TIFF header has no byte-order mark")
-    magic = struct.unpack_from(bo + "H", buf, 2)[0]
-    if magic == 42:
-        big = False
-        ifd = struct.unpack_from(bo + "I", buf, 4)[0]
-    elif magic == 43:
-        big = True
-        if len(buf) < 16:
-            raise _Bad("the BigTIFF header is cut short")
-        ifd = struct.unpack_from(bo + "Q", buf, 8)[0]
-    else:
-        raise _Bad("the TIFF header has a wrong magic number")
-    count_fmt, entry_size, inline = ("Q", 20, 8) if big else ("H", 12, 4)
-    count_size = struct.calcsize(count_fmt)
-    if ifd + count_size > len(buf):
-        raise _Bad("the file is truncated (its first TIFF image directory lies beyond the end of the file)")
-    n = struct.unpack_from(bo + count_fmt, buf, ifd)[0]
-    start = ifd + count_size
-    if start + n * entry_size > len(buf):
-        raise _Bad("the file is truncated (its first TIFF image directory is cut short)")
-    tags: dict[int, tuple[int, ...]] = {}
-    for i in range(n):
-        pos = start + i * entry_size
-        if big:
-            tag, typ, cnt = struct.unpack_from(bo + "HHQ", buf, pos)
-            vpos = pos + 12
-        else:
-            tag, typ, cnt = struct.unpack_from(bo + "HHI", buf, pos)
-            vpos = pos + 8
-        fmt = _TIFF_INT_FMT.get(typ)
-        if fmt is None or cnt == 0:
-            continue
-        size = _TIFF_TYPE_SIZE[typ] * cnt
-        if size > inline:
-            vpos = struct.unpack_from(bo + ("Q" if big else "I"), buf, vpos)[0]
-        if vpos + size > len(buf):
-            raise _Bad(f"TIFF tag {tag} points beyond the end of the file")
-        tags[tag] = struct.unpack_from(f"{bo}{cnt}{fmt}", buf, vpos)
-    return tags
-
-
-def _orientation_from_exif(tiff_block: bytes | None) -> int:
-    """EXIF orientation (1..8) from an EXIF TIFF block; 1 when absent or unreadable."""
-    if not tiff_block:
-        return 1
     try:
-        value = _tiff_ifd0(tiff_block).get(274, (1,))[0]
-    except (_Bad, struct.error):
-        return 1  # a broken EXIF block does not make the picture unreadable
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)  # _pillow_header's limit decides
+            with Image.open(io.BytesIO(data), formats=("JPEG", "PNG")) as im:
+                return {"JPEG": "jpeg", "MPO": "jpeg", "PNG": "png"}.get(im.format)
+    except (OSError, SyntaxError, ValueError, Image.DecompressionBombError, Image.DecompressionBombWarning):
+        # Pillow knows the format but refuses the header: _pillow_header says why
+        return {b"\xff\xd8\xff": "jpeg", b"\x89PN": "png"}.get(data[:3])
+
+
+@contextlib.contextmanager
+def _pixel_limit(max_pixels: int) -> Iterator[None]:
+    """Pillow's decompression-bomb guard at ``max_pixels``: ``Image.open`` of a larger image
+    raises, from its header, before anything is decoded."""
+    old = Image.MAX_IMAGE_PIXELS
+    Image.MAX_IMAGE_PIXELS = max_pixels
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", Image.DecompressionBombWarning)
+            yield
+    finally:
+        Image.MAX_IMAGE_PIXELS = old
+
+
+def _orientation(exif: bytes | None) -> int:
+    """EXIF orientation (1..8) of an EXIF block; 1 when absent or unreadable."""
+    if not exif:
+        return 1
+    tags = Image.Exif()
+    try:
+        tags.load(exif)
+        value = int(tags.get(ExifTags.Base.Orientation, 1))
+    except Exception:  # noqa: BLE001 - a broken EXIF block does not make the picture unreadable
+        return 1
     return value if 1 <= value <= 8 else 1
 
 
-def _png_header(data: bytes) -> _Header:
-    pos = 8
-    width = height = 0
-    exif = None
-    seen_idat = False
-    first = True
-    while True:
-        if pos + 8 > len(data):
-            raise _Bad("the file is truncated (the PNG ends before its IEND chunk)")
-        length, ctype = struct.unpack_from(">I4s", data, pos)
-        end = pos + 8 + length + 4
-        if end > len(data):
-            raise _Bad(f"the file is truncated (the PNG {ctype.decode('latin-1')!r} chunk is cut short)")
-        body = data[pos + 8 : pos + 8 + length]
-        if first:
-            if ctype != b"IHDR" or length != 13:
-                raise _Bad("the PNG does not start with an IHDR chunk")
-            width, height = struct.unpack_from(">II", body)
-            first = False
-        elif ctype == b"IDAT":
-            seen_idat = True
-        elif ctype == b"eXIf" and exif is None:
-            exif = body
-        elif ctype == b"IEND":
-            break
-        pos = end
-    if not seen_idat:
-        raise _Bad("the PNG has no image data (no IDAT chunk)")
-    return _Header("png", width, height, _orientation_from_exif(exif))
+def _pillow_header(data: bytes, fmt: str, max_pixels: int) -> _Header:
+    """Size and EXIF orientation of a JPEG or PNG from Pillow's lazy ``Image.open`` (no pixel
+    is decoded); a PNG's chunks are also checked whole (``verify``: CRCs, truncation)."""
+    name = _FORMAT_NAMES[fmt]
+    try:
+        with _pixel_limit(max_pixels), Image.open(io.BytesIO(data), formats=("JPEG", "PNG")) as im:
+            width, height = im.size
+            orientation = _orientation(im.info.get("exif"))
+    except (Image.DecompressionBombError, Image.DecompressionBombWarning) as exc:
+        raise _Bad(f"the image is larger than the limit of {max_pixels:,} pixels (a decompression bomb, or simply "
+                   f"too large; Pillow: {exc})", "downscale or crop it first") from None
+    except (OSError, SyntaxError, ValueError) as exc:
+        raise _Bad(f"the {name} header is corrupt or cut short ({exc})") from None
+    if fmt == "png":
+        try:
+            with Image.open(io.BytesIO(data), formats=("PNG",)) as im:
+                im.verify()
+        except (OSError, SyntaxError, ValueError) as exc:
+            what = "the file is truncated" if "truncat" in str(exc).lower() else "the PNG data is corrupt"
+            raise _Bad(f"{what} ({exc})") from None
+    return _Header(fmt, width, height, orientation)
 
 
-_SOF_MARKERS = {0xC0, 0xC1, 0xC2, 0xC3, 0xC5, 0xC6, 0xC7, 0xC9, 0xCA, 0xCB, 0xCD, 0xCE, 0xCF}
+@contextlib.contextmanager
+def _quiet_tifffile() -> Iterator[None]:
+    """tifffile logs what it finds wrong in a file; weavecap reports it as a PhotoError instead."""
+    log = logging.getLogger("tifffile")
+    old = log.level
+    log.setLevel(logging.CRITICAL)
+    try:
+        yield
+    finally:
+        log.setLevel(old)
 
 
-def _jpeg_header(data: bytes) -> _Header:
-    pos = 2
-    width = height = None
-    exif = None
-    n = len(data)
-    while True:
-        if pos >= n:
-            raise _Bad("the file is truncated (the JPEG ends before its image data)")
-        if data[pos] != 0xFF:
-            raise _Bad(f"the JPEG structure is corrupt (no marker at byte {pos})")
-        while pos < n and data[pos] == 0xFF:
-            pos += 1
-        if pos >= n:
-            raise _Bad("the file is truncated (the JPEG ends inside a marker)")
-        marker = data[pos]
-        pos += 1
-        if marker == 0xD8 or marker == 0x01 or 0xD0 <= marker <= 0xD7:
-            continue
-        if marker == 0xD9:
-            raise _Bad("the JPEG ends before any image data")
-        if pos + 2 > n:
-            raise _Bad("the file is truncated (the JPEG ends inside a segment header)")
-        length = struct.unpack_from(">H", data, pos)[0]
-        if length < 2 or pos + length > n:
-            raise _Bad("the file is truncated (a JPEG segment is cut short)")
-        body = data[pos + 2 : pos + length]
-        if marker in _SOF_MARKERS and width is None:
-            if len(body) < 6:
-                raise _Bad("the JPEG frame header is cut short")
-            height, width = struct.unpack_from(">HH", body, 1)
-        elif marker == 0xE1 and exif is None and body[:6] == b"Exif\x00\x00":
-            exif = body[6:]
-        elif marker == 0xDA:  # start of scan: the entropy-coded data follows
-            if width is None:
-                raise _Bad("the JPEG has image data but no frame header")
-            if data.find(b"\xff\xd9", pos + length) < 0:
-                raise _Bad("the file is truncated (the JPEG end-of-image marker is missing)")
-            break
-        pos += length
-    if height == 0:
-        raise _Bad("the JPEG gives its height in a DNL marker, which is not supported")
-    return _Header("jpeg", width, height, _orientation_from_exif(exif))
+def _tiff_header(data: bytes, fmt: str, max_pixels: int) -> _Header:
+    """Size and orientation of a TIFF's first image from tifffile (no pixel is decoded), and
+    whether its image data lies inside the file."""
+    import tifffile
 
-
-def _tiff_header(data: bytes) -> _Header:
-    tags = _tiff_ifd0(data)
-    if 256 not in tags or 257 not in tags:
-        raise _Bad("the TIFF has no image width/height tags")
-    width, height = tags[256][0], tags[257][0]
-    for off_tag, cnt_tag in ((273, 279), (324, 325)):
-        if off_tag in tags and cnt_tag in tags:
-            offs = np.asarray(tags[off_tag], dtype=np.uint64)
-            cnts = np.asarray(tags[cnt_tag], dtype=np.uint64)
-            k = min(len(offs), len(cnts))
-            if k and int((offs[:k] + cnts[:k]).max()) > len(data):
-                raise _Bad("the file is truncated (TIFF image data lies beyond the end of the file)")
-    orientation = tags.get(274, (1,))[0]
+    try:
+        with _quiet_tifffile(), tifffile.TiffFile(io.BytesIO(data)) as tif:
+            if not tif.pages:
+                raise _Bad("the file is truncated (its first TIFF image directory lies beyond the end of the file)")
+            page = tif.pages.first
+            width, height = int(page.imagewidth), int(page.imagelength)
+            ends = [int(o) + int(n) for o, n in zip(page.dataoffsets, page.databytecounts)]
+            orientation = int(page.tags.valueof(274, 1))
+    except (tifffile.TiffFileError, ValueError, IndexError, struct.error) as exc:
+        raise _Bad(f"the TIFF structure is corrupt or the file is truncated (tifffile: {exc})") from None
+    if ends and max(ends) > len(data):
+        raise _Bad("the file is truncated (TIFF image data lies beyond the end of the file)")
     return _Header("tiff", width, height, orientation if 1 <= orientation <= 8 else 1)
 
 
-def _exr_header(data: bytes) -> _Header:
+def _exr_header(data: bytes, fmt: str, max_pixels: int) -> _Header:
+    """Size from an OpenEXR header's ``dataWindow`` (Pillow and tifffile do not read EXR, and
+    Mitsuba's Bitmap decodes the whole file): read before decoding, to refuse a huge one."""
     pos = 8
     n = len(data)
     while True:
@@ -403,7 +343,7 @@ def _exr_header(data: bytes) -> _Header:
     raise _Bad("the OpenEXR header has no dataWindow")
 
 
-_HEADER_READERS = {"png": _png_header, "jpeg": _jpeg_header, "tiff": _tiff_header, "exr": _exr_header}
+_HEADER_READERS = {"png": _pillow_header, "jpeg": _pillow_header, "tiff": _tiff_header, "exr": _exr_header}
 
 
 # --------------------------------------------------------------------------------------------
@@ -493,7 +433,9 @@ def _decode_opencv(data: bytes, header: _Header) -> tuple[np.ndarray, int]:
     detail = f" ({said[-1].splitlines()[-1].strip()})" if said else ""
     if a is None or a.size == 0:
         raise _Bad(f"the {name} data is corrupt or uses a variant that cannot be decoded{detail}")
-    if header.fmt == "jpeg" and any(("Corrupt JPEG" in m or "Premature end" in m) for m in said):
+    if header.fmt == "jpeg" and any("Premature end" in m for m in said):
+        raise _Bad(f"the file is truncated{detail}")
+    if header.fmt == "jpeg" and any("Corrupt JPEG" in m for m in said):
         # libjpeg only warns and fills the damaged part with grey: refuse instead
         raise _Bad(f"the JPEG data is corrupt{detail}")
     if header.fmt in ("jpeg", "png"):  # IMREAD_UNCHANGED ignores EXIF orientation: apply it here
@@ -672,7 +614,7 @@ def load_photo(path: str | os.PathLike, *, max_pixels: int = DEFAULT_MAX_PIXELS)
                 expected = _FORMAT_NAMES.get(_STANDARD_EXTENSIONS.get(ext, ""))
                 what = f"is not a valid {expected} file" if expected else "is not an image file"
                 raise _Bad(f"{what} (it starts with bytes {head}, which match no supported format)", _SUPPORTED_HINT)
-            header = _HEADER_READERS[kind](data)
+            header = _HEADER_READERS[kind](data, kind, max_pixels)
             _check_size(header.width, header.height, max_pixels)
             if kind == "exr":
                 rgb, bits = _decode_exr(name)

@@ -31,10 +31,10 @@ def test_export_never_overwrites_without_force(tmp_path):
     out = tmp_path / "out"
     out.mkdir()
     (out / "plain.wif").write_text("keep")
-    result = run(FIXTURE / "plain.json", "-o", out)
+    result = run(FIXTURE / "plain.json", "-o", out, "--format", "wif")
     assert result.exit_code == 2 and "--force" in result.output
     assert (out / "plain.wif").read_text() == "keep"
-    assert run(FIXTURE / "plain.json", "-o", out, "--force").exit_code == 0
+    assert run(FIXTURE / "plain.json", "-o", out, "--format", "wif", "--force").exit_code == 0
     assert (out / "plain.wif").read_text().startswith("[WIF]")
 
 
@@ -42,7 +42,8 @@ def test_export_takes_a_known_pattern_and_a_name(tmp_path):
     draft = tmp_path / "twill.wif"
     wif.save_wif(params.load(FIXTURE / "twill_3_1.json"), draft)
     out = tmp_path / "out"
-    assert run(FIXTURE / "plain.json", "-o", out, "--pattern", draft, "--name", "mine", "-q").exit_code == 0
+    assert run(FIXTURE / "plain.json", "-o", out, "--format", "wif", "--pattern", draft, "--name", "mine",
+               "-q").exit_code == 0
     np.testing.assert_array_equal(wif.read_wif(out / "mine.wif").pattern,
                                   params.load(FIXTURE / "twill_3_1.json").pattern)
 
@@ -51,7 +52,7 @@ def test_a_fit_folder_exports_under_its_folder_name(tmp_path):
     folder = tmp_path / "swatch"
     folder.mkdir()
     params.save(params.load(FIXTURE / "plain.json"), folder / "params.json")
-    assert run(folder / "params.json", "-o", tmp_path / "out", "-q").exit_code == 0
+    assert run(folder / "params.json", "-o", tmp_path / "out", "--format", "wif", "-q").exit_code == 0
     assert (tmp_path / "out" / "swatch.wif").is_file()
 
 
@@ -60,5 +61,5 @@ def test_bad_formats_and_outputs_are_usage_errors(tmp_path):
     assert result.exit_code == 2 and "'obj' is not a format" in result.output
     a_file = tmp_path / "file"
     a_file.write_text("")
-    result = run(FIXTURE / "plain.json", "-o", a_file)
+    result = run(FIXTURE / "plain.json", "-o", a_file, "--format", "wif")
     assert result.exit_code == 2 and "is a file" in result.output

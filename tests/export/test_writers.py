@@ -33,7 +33,7 @@ def known() -> PbrMaps:
                    roughness=(0.2 + 0.6 * cols / (W - 1)).astype(np.float32),
                    opacity=np.where((rows + cols) % 2 == 0, 1.0, 0.25).astype(np.float32),
                    height=(rows / (H - 1)).astype(np.float32), height_mm=0.25, size_mm=(1.8, 1.2), repeats=(1, 1),
-                   ior=1.5, sheen=((0.2, 0.2, 0.2), 0.4))
+                   ior=1.5)
 
 
 @pytest.mark.parametrize("convention, sign", [("opengl", 1.0), ("directx", -1.0)])
@@ -141,8 +141,8 @@ def test_gltf_swatch_tiles_the_material_over_its_physical_size(tmp_path, known):
     assert doc.extras["swatch_mm"] == [18.0, 18.0]
     pos = doc.accessors[0]
     assert pos.max[0] - pos.min[0] == pytest.approx(0.018)  # metres
-    sheen = doc.materials[0].extensions["KHR_materials_sheen"]
-    assert sheen["sheenRoughnessFactor"] == pytest.approx(0.4)
+    assert doc.extensionsUsed == ["KHR_texture_transform", "KHR_materials_ior", "KHR_materials_specular"]
+    assert doc.materials[0].extensions["KHR_materials_ior"] == {"ior": 1.5}
 
 
 def _mitsuba_textures(folder: Path, maps: PbrMaps) -> dict[str, str]:

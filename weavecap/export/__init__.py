@@ -14,14 +14,25 @@ One module per format, each a writer of plain data:
 
 from __future__ import annotations
 
+import functools
 import os
 from collections.abc import Callable
 from dataclasses import dataclass
+from datetime import datetime, timezone
 from pathlib import Path
 
+from .. import __version__
 from ..errors import InputError
 from ..io import refuse_overwrite
 from ..params import Fabric
+from .maps import PbrMaps
+
+
+#: the U3M preview: one tile rendered at this many pixels a side and samples per pixel
+PREVIEW_PIXELS, PREVIEW_SPP = 256, 32
+
+#: formats whose files carry the PBR material (they need the surface model's bake and a pitch)
+MATERIAL_FORMATS = ("pbr", "u3m", "gltf", "mitsuba")
 
 
 @dataclass(frozen=True)
@@ -33,11 +44,28 @@ class ExportOptions:
     formats : names from :data:`FORMATS`, in the order given
     name : file name stem of every output
     force : overwrite existing outputs
+    pitch_mm : yarn spacing in millimetres, in place of the params' ``scale.pitch_mm``
+    texels_per_yarn : map resolution; repeats : weave repeats per tile side
+    bits : 8 or 16 bits per channel of PNG maps; map_format : ``png`` or ``exr`` (PBR maps)
+    normal_convention : ``opengl`` or ``directx`` (PBR maps; U3M and glTF are OpenGL by spec)
+    swatch_mm : side of the glTF and Mitsuba swatches
+    seed : of the material fit's samples; created : time stamp written into U3M
+    source : bytes that identify the input (the U3M material id is hashed from them)
     """
 
     formats: tuple[str, ...]
     name: str
     force: bool = False
+    pitch_mm: float | None = None
+    texels_per_yarn: int = 16
+    repeats: int = 1
+    bits: int = 8
+    map_format: str = "png"
+    normal_convention: str = "opengl"
+    swatch_mm: float = 100.0
+    seed: int = 0
+    created: datetime | None = None
+    source: bytes = b""
 
 
 @dataclass(frozen=True)
@@ -48,15 +76,117 @@ class Plan:
     write: Callable[[], object]
 
 
-def _wif(fabric: Fabric, out: Path, options: ExportOptions) -> Plan:
+class Material:
+    """The fabric's PBR material, fitted on first use (:func:`.material.pbr_maps`) and shared
+    by every format of one export."""
+
+    def __init__(self, fabric: Fabric, options: ExportOptions):
+        self.fabric, self.options = fabric, options
+
+    @functools.cached_property
+    def maps(self) -> PbrMaps:
+        from .material import pbr_maps
+
+        o = self.options
+        return pbr_maps(self.fabric, pitch_mm=pitch_of(self.fabric, o.pitch_mm), texels_per_yarn=o.texels_per_yarn,
+                        repeats=o.repeats, seed=o.seed)
+
+    def about(self) -> dict:
+        """What the maps were made from, for the files' metadata."""
+        from ..estimate.weave_name import weave_name
+
+        return {"generator": f"weavecap {__version__}", "weave": weave_name(self.fabric.pattern),
+                "pattern": list(self.fabric.shape), "pitch_mm": pitch_of(self.fabric, self.options.pitch_mm)}
+
+
+def pitch_of(fabric: Fabric, pitch_mm: float | None) -> float:
+    """The yarn pitch in millimetres: ``pitch_mm`` if given, else the params' ``scale.pitch_mm``.
+
+    Raises
+    ------
+    InputError
+        Neither is known (the maps' physical size depends on it).
+    """
+    pitch = pitch_mm if pitch_mm is not None else (fabric.scale or {}).get("pitch_mm")
+    if pitch is None:
+        raise InputError("scale.pitch_mm: the params file does not say how far apart the yarns are, and the maps' "
+                         "physical size depends on it; pass --pitch-mm (e.g. --pitch-mm 0.3)")
+    return float(pitch)
+
+
+def _wif(fabric: Fabric, out: Path, options: ExportOptions, material: Material) -> Plan:
     from ..wif import save_wif
 
     path = out / f"{options.name}.wif"
     return Plan([path], lambda: save_wif(fabric, path, force=True))
 
 
-#: format name → planner ``(fabric, out, options) → Plan``
-FORMATS: dict[str, Callable[[Fabric, Path, ExportOptions], Plan]] = {"wif": _wif}
+def _pbr(fabric: Fabric, out: Path, options: ExportOptions, material: Material) -> Plan:
+    from .pbr import pbr_files, save_pbr
+
+    folder = out / "pbr"
+    files = pbr_files(options.name, ext=f".{options.map_format}")
+    return Plan([folder / f for f in files.values()],
+                lambda: save_pbr(material.maps, folder, name=options.name, fmt=options.map_format, bits=options.bits,
+                                 normal_convention=options.normal_convention, about=material.about()))
+
+
+def _u3m(fabric: Fabric, out: Path, options: ExportOptions, material: Material) -> Plan:
+    from .u3m import save_u3m, u3m_files
+
+    folder = out / "u3m"
+
+    def write():
+        maps = material.maps
+        return save_u3m(maps, folder, name=options.name, description=f"{material.about()['weave']}, made by weavecap",
+                        material_key=options.source + repr(options).encode(), created=_created(options),
+                        preview=_preview(maps), bits=options.bits, custom=material.about())
+
+    return Plan([folder / f for f in u3m_files(options.name).values()], write)
+
+
+def _gltf(fabric: Fabric, out: Path, options: ExportOptions, material: Material) -> Plan:
+    from .gltf import save_gltf
+
+    path = out / f"{options.name}.glb"
+    return Plan([path], lambda: save_gltf(material.maps, path, name=options.name, swatch_mm=options.swatch_mm,
+                                          extras=material.about()))
+
+
+def _mitsuba(fabric: Fabric, out: Path, options: ExportOptions, material: Material) -> Plan:
+    from . import mitsuba
+
+    folder = out / "mitsuba"
+    files = mitsuba.scene_files(options.name)
+    return Plan([folder / f for f in files.values()],
+                lambda: mitsuba.save_scenes(material.maps, fabric, folder, name=options.name,
+                                            swatch_mm=options.swatch_mm, texels_per_yarn=options.texels_per_yarn))
+
+
+#: format name → planner ``(fabric, out, options, material) → Plan``
+FORMATS: dict[str, Callable[[Fabric, Path, ExportOptions, Material], Plan]] = {
+    "wif": _wif, "pbr": _pbr, "u3m": _u3m, "gltf": _gltf, "mitsuba": _mitsuba}
+
+
+def _created(options: ExportOptions) -> datetime:
+    return options.created or datetime.now(timezone.utc)
+
+
+def _preview(maps: PbrMaps):
+    """The U3M preview: the maps on plain Mitsuba's principled BSDF, one tile seen from above."""
+    import tempfile
+
+    from . import mitsuba
+    from .maps import MAP_KINDS, map_image, write_map
+
+    with tempfile.TemporaryDirectory() as tmp:
+        textures = {}
+        for key, kind in MAP_KINDS.items():
+            textures[key] = str(Path(tmp) / f"{key}.png")
+            write_map(textures[key], map_image(maps, key), kind=kind, bits=16)
+        scene = mitsuba.swatch_scene(maps, textures, swatch_mm=maps.size_mm[0], size=(PREVIEW_PIXELS, PREVIEW_PIXELS),
+                                     spp=PREVIEW_SPP)
+        return mitsuba.render_scene(scene)
 
 
 def default_name(params_path: str | os.PathLike) -> str:
@@ -86,7 +216,10 @@ def export(fabric: Fabric, out: str | os.PathLike, options: ExportOptions) -> li
     unknown = [f for f in options.formats if f not in FORMATS]
     if unknown:
         raise InputError(f"unknown export format {unknown[0]!r}; choose from {', '.join(FORMATS)}")
-    plans = [FORMATS[f](fabric, out, options) for f in dict.fromkeys(options.formats)]
+    if any(f in MATERIAL_FORMATS for f in options.formats):
+        pitch_of(fabric, options.pitch_mm)  # before any work
+    material = Material(fabric, options)
+    plans = [FORMATS[f](fabric, out, options, material) for f in dict.fromkeys(options.formats)]
     for plan in plans:
         for path in plan.paths:
             refuse_overwrite(path, force=options.force)

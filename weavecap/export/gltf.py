@@ -5,8 +5,10 @@ One ``.glb`` file (pygltflib): a quad ``swatch_mm`` wide lying in the ground pla
 colour texture carries the opacity in its alpha (``BLEND``: the gaps between yarns show what is
 behind), a roughness texture (green channel, metalness 0 in blue), the normal map (OpenGL, as
 glTF wants it); every texture repeats ``k`` times across the swatch through
-``KHR_texture_transform`` (required: without it one tile would be stretched over the swatch),
-and ``KHR_materials_sheen`` where the material has a sheen. The texture's top row lies towards
+``KHR_texture_transform`` (required: without it one tile would be stretched over the swatch);
+``KHR_materials_ior`` and ``KHR_materials_specular`` give the yarns' specular reflectance.
+No ``KHR_materials_sheen``: measured against the surface model, a sheen makes the swatch look
+less like it at every view (docs/export.md). The texture's top row lies towards
 −z, so a viewer looking down with −z up sees the tile as in the PNG maps.
 """
 
@@ -21,7 +23,7 @@ from .maps import PbrMaps, map_image
 #: default side of the swatch, millimetres (rounded to whole tiles)
 SWATCH_MM = 100.0
 TRANSFORM = "KHR_texture_transform"
-SHEEN = "KHR_materials_sheen"
+IOR, SPECULAR = "KHR_materials_ior", "KHR_materials_specular"
 
 
 def _png(image: np.ndarray, *, srgb_channels: int) -> bytes:
@@ -97,17 +99,13 @@ def gltf_swatch(maps: PbrMaps, *, name: str, swatch_mm: float = SWATCH_MM, extra
     def info(key: str, cls=g.TextureInfo, **kw):
         return cls(index=image_index[key], extensions=dict(transform), **kw)
 
-    material_ext = {}
-    if maps.sheen is not None:
-        colour, roughness = maps.sheen
-        material_ext[SHEEN] = {"sheenColorFactor": [float(c) for c in colour], "sheenRoughnessFactor": float(roughness)}
     material = g.Material(
         name=name, doubleSided=True, alphaMode="BLEND",
         pbrMetallicRoughness=g.PbrMetallicRoughness(baseColorTexture=info("base_color"), metallicFactor=1.0,
                                                    roughnessFactor=1.0, metallicRoughnessTexture=info("roughness")),
         normalTexture=info("normal", g.NormalMaterialTexture, scale=1.0),
-        extensions=material_ext or None)
-    used = [TRANSFORM] + ([SHEEN] if material_ext else [])
+        # F0 = F0(η^S) × R^S, as the material was fitted with (core glTF: 4 %)
+        extensions={IOR: {"ior": float(maps.ior)}, SPECULAR: {"specularFactor": float(maps.specular)}})
     gltf = g.GLTF2(
         asset=g.Asset(version="2.0", generator=f"weavecap {_version()}"),
         scene=0, scenes=[g.Scene(nodes=[0])], nodes=[g.Node(mesh=0, name=name)],
@@ -117,7 +115,7 @@ def gltf_swatch(maps: PbrMaps, *, name: str, swatch_mm: float = SWATCH_MM, extra
         images=gl_images, samplers=[g.Sampler(magFilter=g.LINEAR, minFilter=g.LINEAR_MIPMAP_LINEAR,
                                               wrapS=g.REPEAT, wrapT=g.REPEAT)],
         textures=[g.Texture(source=i, sampler=0) for i in range(len(gl_images))],
-        materials=[material], extensionsUsed=used, extensionsRequired=[TRANSFORM],
+        materials=[material], extensionsUsed=[TRANSFORM, IOR, SPECULAR], extensionsRequired=[TRANSFORM],
         extras={"swatch_mm": [round(w * 1000, 6), round(h * 1000, 6)], "tile_mm": list(maps.size_mm),
                 **(extras or {})})
     gltf.set_binary_blob(bytes(blob))

@@ -19,6 +19,8 @@ import numpy as np
 #: Normal-map conventions: the sign of the green channel's y. OpenGL (glTF, U3M, Blender) has
 #: +y up the image; DirectX (Substance's default, Unreal) has +y down.
 NORMAL_CONVENTIONS = {"opengl": 1.0, "directx": -1.0}
+#: the principled BSDF's "specular" scale: 1 stands for a reflectance of 8 % at normal incidence
+SPECULAR_SPAN = 0.08
 
 
 @dataclass(frozen=True)
@@ -36,7 +38,8 @@ class PbrMaps:
     size_mm : (width, height) of the tile in millimetres
     repeats : (rows, columns) of weave repeats the tile spans
     ior : float, index of refraction of the yarns' specular reflection (η^S)
-    sheen : (RGB, roughness) of a sheen lobe, or None when the fabric has none to speak of
+    specular : float in [0, 1], the yarns' specular reflection colour R^S (its mean): with
+        ``ior`` it gives the reflectance at normal incidence, :attr:`f0`
     """
 
     base_color: np.ndarray
@@ -48,12 +51,33 @@ class PbrMaps:
     size_mm: tuple[float, float]
     repeats: tuple[int, int]
     ior: float
-    sheen: tuple[tuple[float, float, float], float] | None = None
+    specular: float = 1.0
 
     @property
     def shape(self) -> tuple[int, int]:
         """(H, W) texels."""
         return (int(self.opacity.shape[0]), int(self.opacity.shape[1]))
+
+    @property
+    def f0(self) -> float:
+        """Specular reflectance at normal incidence (:func:`f0`)."""
+        return f0(self.ior, self.specular)
+
+    @property
+    def specular_level(self) -> float:
+        """The principled BSDF's ``specular`` (:func:`specular_level`)."""
+        return specular_level(self.ior, self.specular)
+
+
+def f0(ior: float, specular: float) -> float:
+    """Specular reflectance at normal incidence: Fresnel's ``((η − 1)/(η + 1))²`` × R^S."""
+    return ((ior - 1.0) / (ior + 1.0)) ** 2 * specular
+
+
+def specular_level(ior: float, specular: float) -> float:
+    """The principled BSDF's ``specular`` (Mitsuba, Blender; U3M's ``specular_value``): F0 on
+    a scale where 1 stands for 8 %."""
+    return min(1.0, f0(ior, specular) / SPECULAR_SPAN)
 
 
 #: map name → kind: "colour" is sRGB-encoded in integer files, "data" is written as it is

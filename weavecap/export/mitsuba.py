@@ -1,4 +1,5 @@
-"""Mitsuba 3 scene of a swatch: the fabric's maps on plain Mitsuba's principled BSDF.
+"""Mitsuba 3 scenes of a swatch: the PBR maps on plain Mitsuba's principled BSDF, and the same
+swatch with weavecap's own surface BSDF for Mitsuba where weavecap is installed.
 
 The scene is built as a Mitsuba dictionary (what ``mi.load_dict`` takes) and written as the
 XML scene format (``mi.load_file``); Mitsuba 3.9 has no dictionary-to-XML writer, so
@@ -7,12 +8,19 @@ dictionary renders in-process (:func:`render_swatch`: the U3M preview, the READM
 the comparison with ``weavecap render --mode reference``).
 
 The swatch is a ``rectangle`` in the z = 0 plane facing +z, ``swatch_mm`` wide (scene units:
-metres), the camera on +z looking down at it, y up. Its material is, from the outside in:
+metres), the camera on +z looking down at it, y up, over a black backdrop. Its material is, from the outside in:
 ``mask`` (opacity: the gaps let the light through) → ``twosided`` → ``normalmap`` (OpenGL
 tangent-space normals) → ``principled`` (base colour, roughness, metallic 0, the yarns' η).
 Every bitmap repeats the tile ``k`` times across the swatch (``to_uv``); Mitsuba puts an
 image's first row at v = 0, the bottom of the rectangle, so ``to_uv`` also flips v to show the
 maps as they look in the PNG files (row 0 at the top).
+
+With weavecap: :func:`register` adds the BSDF plugin ``weavecap_surface`` (properties:
+``params``, a params file relative to the scene; ``repeat_u``, ``repeat_v``, one weave repeat
+in texture coordinates; ``texels_per_yarn``) — :class:`weavecap.render.bsdf.SurfaceBSDF` on the
+surface model baked from that file, §6.3 noise included — and the path tracer
+``weavecap_path`` (:mod:`weavecap.render.integrator`, which lets light through the gaps).
+:func:`load_scene` registers them and loads a scene file.
 """
 
 from __future__ import annotations
@@ -27,13 +35,13 @@ from .maps import PbrMaps
 
 #: plugin type → the XML element it is written as
 PLUGIN_TAGS = {
-    **dict.fromkeys(("path", "direct"), "integrator"),
+    **dict.fromkeys(("path", "direct", "weavecap_path"), "integrator"),
     **dict.fromkeys(("perspective", "orthographic"), "sensor"),
     "hdrfilm": "film", **dict.fromkeys(("box", "gaussian"), "rfilter"),
     **dict.fromkeys(("independent", "stratified"), "sampler"),
     **dict.fromkeys(("constant", "directional", "envmap", "point"), "emitter"),
     **dict.fromkeys(("rectangle", "obj", "ply"), "shape"),
-    **dict.fromkeys(("principled", "normalmap", "mask", "twosided", "diffuse"), "bsdf"),
+    **dict.fromkeys(("principled", "normalmap", "mask", "twosided", "diffuse", "weavecap_surface"), "bsdf"),
     "bitmap": "texture",
 }
 
@@ -43,11 +51,23 @@ SKY_RADIANCE = 0.6
 SUN_IRRADIANCE = 2.0
 SUN_DIRECTION = (-0.3, -0.4, -1.0)
 FOV_DEG = 30.0
+BACKDROP_DEPTH = 0.05  # how far below the swatch the black backdrop lies, in half-swatch widths
+BACKDROP_SIZE = 4.0  # the backdrop's side in half-swatch widths
+PLUGIN = "weavecap_surface"
 
 
 def _matrix(transform) -> str:
     m = np.array(transform.matrix, dtype=np.float64).reshape(4, 4)
     return " ".join(f"{v:.9g}" for v in m.ravel())
+
+
+def _copy_dicts(value):
+    """A copy of nested dictionaries (their other values shared: transforms do not deep-copy)."""
+    return {k: _copy_dicts(v) for k, v in value.items()} if isinstance(value, dict) else value
+
+
+class _Default(str):
+    """An integer written as a reference to a ``<default>`` parameter."""
 
 
 def _element(name: str | None, value, parent: ET.Element) -> None:
@@ -70,6 +90,8 @@ def _element(name: str | None, value, parent: ET.Element) -> None:
                 _element(key, item, el)  # a plugin's children keep their dictionary key as name
     elif isinstance(value, mi.ScalarTransform4f):
         ET.SubElement(ET.SubElement(parent, "transform", attrs), "matrix", value=_matrix(value))
+    elif isinstance(value, _Default):
+        ET.SubElement(parent, "integer", attrs, value=f"${value}")
     elif isinstance(value, bool):
         ET.SubElement(parent, "boolean", attrs, value="true" if value else "false")
     elif isinstance(value, int):
@@ -84,9 +106,24 @@ def _element(name: str | None, value, parent: ET.Element) -> None:
         raise TypeError(f"cannot write {name}={value!r} as Mitsuba XML")
 
 
+#: values of a swatch scene that its XML file declares as defaults, so that a user overrides
+#: them when loading it (``mitsuba -D spp=256 scene.xml``, ``mi.load_file(path, resx=1024)``)
+DEFAULTS = {"resx": ("sensor", "film", "width"), "resy": ("sensor", "film", "height"),
+            "spp": ("sensor", "sampler", "sample_count")}
+
+
 def to_xml(scene: dict) -> str:
-    """The Mitsuba 3 XML text of a scene dictionary (``{"type": "scene", ...}``)."""
+    """The Mitsuba 3 XML text of a scene dictionary (``{"type": "scene", ...}``); the values at
+    :data:`DEFAULTS` become ``<default>`` parameters (``$resx``, ``$resy``, ``$spp``)."""
     root = ET.Element("scene", version="3.0.0")
+    scene = _copy_dicts(scene)
+    for name, keys in DEFAULTS.items():
+        node = scene
+        for key in keys[:-1]:
+            node = node.get(key, {})
+        if keys[-1] in node:
+            ET.SubElement(root, "default", name=name, value=str(node[keys[-1]]))
+            node[keys[-1]] = _Default(name)
     for key, value in scene.items():
         if key != "type":
             _element(None, value, root)
@@ -100,7 +137,7 @@ def swatch_scene(maps: PbrMaps, textures: dict[str, str], *, swatch_mm: float, s
 
     Parameters
     ----------
-    maps : the material (tile size; its ior)
+    maps : the material (tile size, specular level)
     textures : map name → image file (``base_color``, ``normal``, ``roughness``, ``opacity``)
     swatch_mm : side of the square swatch (whole tiles: ``k = swatch_mm / tile``)
     size : (width, height) pixels; spp : samples per pixel
@@ -122,11 +159,12 @@ def swatch_scene(maps: PbrMaps, textures: dict[str, str], *, swatch_mm: float, s
         "type": "mask",
         "opacity": bitmap("opacity", True),
         "bsdf": {"type": "twosided", "bsdf": {
-            "type": "normalmap", "normalmap": bitmap("normal", True),
+            # no shadow-terminator darkening: the maps' normals are the yarns' own relief, the
+            # material was fitted without it, and glTF/U3M viewers apply none
+            "type": "normalmap", "normalmap": bitmap("normal", True), "use_shadowing_function": False,
             "bsdf": {"type": "principled", "base_color": bitmap("base_color", False),
                      "roughness": bitmap("roughness", True), "metallic": 0.0,
-                     "specular": float(min(1.0, ((maps.ior - 1) / (maps.ior + 1)) ** 2 / 0.08)),
-                     **({"sheen": float(np.mean(maps.sheen[0]))} if maps.sheen else {})}}},
+                     "specular": float(maps.specular_level)}}},
     }
     distance = half / math.tan(math.radians(FOV_DEG) / 2.0) * 1.02
     return {
@@ -142,15 +180,52 @@ def swatch_scene(maps: PbrMaps, textures: dict[str, str], *, swatch_mm: float, s
                       "sun": {"type": "directional", "direction": list(SUN_DIRECTION),
                               "irradiance": {"type": "rgb", "value": SUN_IRRADIANCE}}}),
         "swatch": {"type": "rectangle", "to_world": mi.ScalarTransform4f().scale([half, half, 1.0]), "bsdf": material},
+        # a black cloth close under the swatch: the gaps show black, and no light comes from
+        # below (the principled BSDF has no transmission through the yarns to show it)
+        "backdrop": {"type": "rectangle",
+                     "to_world": mi.ScalarTransform4f().translate([0.0, 0.0, -BACKDROP_DEPTH * half]).scale(
+                         [BACKDROP_SIZE * half, BACKDROP_SIZE * half, 1.0]),
+                     "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": 0.0}}},
     }
 
 
-def render_scene(scene: dict | str | Path, *, spp: int | None = None, seed: int = 0) -> np.ndarray:
-    """Render a scene dictionary or XML file in plain Mitsuba; (H, W, 3) float32 linear RGB."""
+def scene_files(name: str) -> dict[str, str]:
+    """The files of the Mitsuba export, relative to its folder."""
+    files = {key: f"textures/{name}_{key}.png" for key in ("base_color", "normal", "roughness", "opacity")}
+    files.update(scene=f"{name}.xml", weavecap=f"{name}_weavecap.xml", params=f"{name}.json")
+    return files
+
+
+def save_scenes(maps: PbrMaps, fabric, folder: Path, *, name: str, swatch_mm: float, texels_per_yarn: int) -> list[Path]:
+    """Write the swatch scene twice into ``folder``: ``<name>.xml`` with the PBR maps on the
+    principled BSDF (plain Mitsuba), and ``<name>_weavecap.xml`` with weavecap's surface BSDF
+    and path tracer (:func:`load_scene`), with the fabric's params beside it."""
+    from ..params import save
+    from .maps import MAP_KINDS, map_image, write_map
+
+    files = scene_files(name)
+    for key in ("base_color", "normal", "roughness", "opacity"):
+        write_map(folder / files[key], map_image(maps, key), kind=MAP_KINDS[key], bits=16)
+    plain = swatch_scene(maps, files, swatch_mm=swatch_mm)
+    save_scene(plain, folder / files["scene"])
+    save(fabric, folder / files["params"])
+    k = (swatch_mm / maps.size_mm[0] * maps.repeats[1], swatch_mm / maps.size_mm[1] * maps.repeats[0])
+    surface = {"type": PLUGIN, "params": files["params"], "repeat_u": 1.0 / k[0], "repeat_v": 1.0 / k[1],
+               "texels_per_yarn": int(texels_per_yarn)}
+    own = swatch_scene(maps, files, swatch_mm=swatch_mm, bsdf=surface)
+    own["integrator"] = {"type": "weavecap_path", "max_depth": 8}
+    save_scene(own, folder / files["weavecap"])
+    return [folder / f for f in files.values()]
+
+
+def render_scene(scene: dict | str | Path, *, spp: int | None = None, seed: int = 0, **defaults) -> np.ndarray:
+    """Render a scene dictionary or file (``defaults`` override a file's ``<default>``s, e.g.
+    ``resx=96``); (H, W, 3) float32 linear RGB. weavecap's plugins are registered first, so
+    the ``_weavecap.xml`` scenes render too."""
     from ..backend import mitsuba
 
     mi = mitsuba()
-    loaded = mi.load_file(str(scene)) if isinstance(scene, (str, Path)) else mi.load_dict(scene)
+    loaded = load_scene(scene, **defaults) if isinstance(scene, (str, Path)) else mi.load_dict(scene)
     return np.array(mi.render(loaded, spp=spp or 0, seed=seed), dtype=np.float32)[..., :3]
 
 
@@ -160,3 +235,36 @@ def save_scene(scene: dict, path: Path) -> Path:
 
     atomic_write_text(path, to_xml(scene))
     return path
+
+
+def _surface_plugin(props):
+    """The ``weavecap_surface`` BSDF of a scene (see the module docstring)."""
+    from ..backend import mitsuba
+    from ..params import load
+    from ..render.bsdf import Placement, SurfaceBSDF
+    from ..render.surface import TEXELS_PER_YARN, bake, noise_map
+
+    mi = mitsuba()
+    path = str(mi.file_resolver().resolve(props["params"]))
+    fabric = load(path)
+    maps = bake(fabric, texels_per_yarn=int(props.get("texels_per_yarn", TEXELS_PER_YARN)))
+    placement = Placement(repeat_size=(float(props["repeat_u"]), float(props["repeat_v"])))
+    return SurfaceBSDF(fabric, maps, placement, noise_map(fabric))
+
+
+def register() -> None:
+    """Make ``weavecap_surface`` (BSDF) and ``weavecap_path`` (integrator) loadable by name."""
+    from ..backend import mitsuba
+    from ..render import integrator
+
+    mitsuba().register_bsdf(PLUGIN, _surface_plugin)
+    integrator.register()
+
+
+def load_scene(path: str | Path, **defaults):
+    """Load a scene file, weavecap's plugins registered (``mi.load_file``; ``defaults``
+    override its ``<default>`` parameters)."""
+    from ..backend import mitsuba
+
+    register()
+    return mitsuba().load_file(str(path), **{k: str(v) for k, v in defaults.items()})

@@ -35,9 +35,8 @@ def material_description(maps: PbrMaps, files: dict[str, str], *, normal_convent
         "repeats": list(maps.repeats),
         "height_mm": round(maps.height_mm, 6),
         "ior": round(maps.ior, 4),
+        "f0": round(maps.f0, 5),
         "metalness": 0.0,
-        "sheen": None if maps.sheen is None else {"color": [round(c, 4) for c in maps.sheen[0]],
-                                                  "roughness": round(maps.sheen[1], 4)},
         "maps": {
             "base_color": {"file": files["base_color"], "encoding": "sRGB" if bits else "linear"},
             "normal": {"file": files["normal"], "convention": normal_convention, "encoding": "(n + 1) / 2"},

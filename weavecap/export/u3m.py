@@ -27,8 +27,6 @@ from .maps import PbrMaps, map_image, write_map
 
 SCHEMA_VERSION = "1.1"
 TEXTURES = "textures"  # folder of the images, beside the .u3m
-#: the U3M ``specular_value`` scale: 1.0 stands for a reflectance of 8 % at normal incidence
-SPECULAR_SPAN = 0.08
 
 
 def material_id(key: bytes) -> str:
@@ -82,11 +80,7 @@ def u3m_document(maps: PbrMaps, files: dict[str, str], *, name: str, description
     def scalar(key: str, factor: float = 1.0) -> dict:
         return {"factor": round(float(factor), 6), "offset": 0.0, "image": image(key)}
 
-    f0 = ((maps.ior - 1.0) / (maps.ior + 1.0)) ** 2
     mean_colour = maps.base_color.reshape(-1, 3).mean(axis=0)
-    sheen_value, sheen_tint = 0.0, 0.0
-    if maps.sheen is not None:
-        sheen_value = float(np.mean(maps.sheen[0]))
     visual = {
         "alpha": _number(maps.opacity.mean(), scalar("opacity")),
         "anisotropy_value": _number(0.0),
@@ -99,9 +93,9 @@ def u3m_document(maps: PbrMaps, files: dict[str, str], *, name: str, description
         "normal": {"constant": {"x": 0.0, "y": 0.0, "z": 1.0}, "texture": {"scale": 1.0, "image": image("normal")}},
         "displacement": _number(maps.height.mean() * maps.height_mm, scalar("height", maps.height_mm)),
         "roughness": _number(maps.roughness.mean(), scalar("roughness")),
-        "sheen_value": _number(sheen_value),
-        "sheen_tint": _number(sheen_tint),
-        "specular_value": _number(min(1.0, f0 / SPECULAR_SPAN)),
+        "sheen_value": _number(0.0),
+        "sheen_tint": _number(0.0),
+        "specular_value": _number(maps.specular_level),  # U3M: 1.0 stands for 8 %
         "specular_tint": _number(0.0),
         "subsurface_radius": _number(0.0),
         "subsurface_value": _number(0.0),

@@ -119,22 +119,34 @@ def _azimuth(w, start_deg: float = 0.0):
 class SurfaceTextures:
     """The maps of one fabric as Dr.Jit textures, looked up at fabric coordinates.
 
-    The CHANNELS packed four to a texture, both sides stacked, linear filtering, wrapping
-    over the repeat; the noise gain, when there is one, tiles over its own period.
+    The CHANNELS packed four to a texture, both sides stacked, wrapping over the repeat, and
+    the coverage alone (the face's: a vertical ray meets a yarn from either side or from
+    neither) for null interactions; the noise gain, when there is one, tiles over its own
+    period. ``linear`` filtering interpolates between texels, for views where a texel covers a
+    good part of a pixel or more; nearest-texel lookups cost a quarter as many memory reads and
+    are what the pixel's samples average anyway when many texels fall in a pixel.
     """
 
-    def __init__(self, maps: SurfaceMaps, noise: NoiseMap | None = None):
+    def __init__(self, maps: SurfaceMaps, noise: NoiseMap | None = None, *, linear: bool = True):
         self.maps = maps
         self.rows = maps.shape[0]
+        self.linear = linear
+        mode = dr.FilterMode.Linear if linear else dr.FilterMode.Nearest
         data = _channels(maps)
         self.textures = [mi.Texture2f(mi.TensorXf(_stack_sides(data[FACE, ..., c:c + 4], data[BACK, ..., c:c + 4])),
-                                      filter_mode=dr.FilterMode.Linear, wrap_mode=dr.WrapMode.Repeat)
+                                      filter_mode=mode, wrap_mode=dr.WrapMode.Repeat)
                          for c in range(0, data.shape[-1], 4)]
+        self.coverage_texture = mi.Texture2f(mi.TensorXf(np.ascontiguousarray(maps.coverage[FACE, ..., None])),
+                                             filter_mode=mode, wrap_mode=dr.WrapMode.Repeat)
         self.noise = None
         if noise is not None:
             self.noise = mi.Texture2f(mi.TensorXf(noise.gain[..., None]), filter_mode=dr.FilterMode.Linear,
                                       wrap_mode=dr.WrapMode.Repeat)
             self.noise_repeats = float(noise.repeats)
+
+    def coverage(self, s, t):
+        """The coverage (opacity) at fabric coordinates ``(s, t)``: one texture read."""
+        return dr.clip(self.coverage_texture.eval(mi.Point2f(s, -t))[0], 0.0, 1.0)
 
     def lookup(self, s, t, back) -> SurfacePoint:
         """The maps at fabric coordinates ``(s, t)`` (Float, in repeats: ``s`` along +u, ``t``
@@ -275,16 +287,18 @@ def sample_surface(p: _bysdf.Shading, colours: YarnColours, point: SurfacePoint,
 class SurfaceBSDF(mi.BSDF):
     """Mitsuba 3 BSDF of a fabric's surface model on a mesh (made in Python, not by name).
 
-    ``SurfaceBSDF(fabric, maps, placement, noise=None)``. The hit's texture coordinates
+    ``SurfaceBSDF(fabric, maps, placement, noise=None, linear=True)`` (``linear``: texture
+    filtering, see :class:`SurfaceTextures`). The hit's texture coordinates
     (``si.uv``, metres for meshes from :mod:`weavecap.render.mesh`) place it in the repeat
     through ``placement``; its shading frame (``s`` along the UV's +u) orients the maps. Both
     sides of a mesh show the fabric: the face on the side its normals point to.
     """
 
-    def __init__(self, fabric: Fabric, maps: SurfaceMaps, placement: Placement, noise: NoiseMap | None = None):
+    def __init__(self, fabric: Fabric, maps: SurfaceMaps, placement: Placement, noise: NoiseMap | None = None, *,
+                 linear: bool = True):
         mi.BSDF.__init__(self, mi.Properties())
         self.shading, self.colours = shading_of(fabric)
-        self.textures = SurfaceTextures(maps, noise)
+        self.textures = SurfaceTextures(maps, noise, linear=linear)
         self.placement = placement
         theta = math.radians(placement.angle_deg)
         self._cos, self._sin = math.cos(theta), math.sin(theta)
@@ -306,14 +320,18 @@ class SurfaceBSDF(mi.BSDF):
         c, s = self._cos, self._sin
         return mi.Vector3f(c * w.x - s * w.y, s * w.x + c * w.y, dr.select(back, -w.z, w.z))
 
-    def point(self, si) -> tuple[SurfacePoint, object]:
-        """The maps at a hit, and whether it is seen from the back."""
+    def _fabric_uv(self, si):
+        """The hit's fabric coordinates (s, t), in repeats."""
         pl = self.placement
         c, s = self._cos, self._sin
         fs = (c * si.uv.x + s * si.uv.y) / pl.repeat_size[0] + pl.offset[0]
         ft = (-s * si.uv.x + c * si.uv.y) / pl.repeat_size[1] + pl.offset[1]
+        return fs, ft
+
+    def point(self, si) -> tuple[SurfacePoint, object]:
+        """The maps at a hit, and whether it is seen from the back."""
         back = si.wi.z < 0.0
-        return self.textures.lookup(fs, ft, back), back
+        return self.textures.lookup(*self._fabric_uv(si), back), back
 
     # -- the BSDF interface ---------------------------------------------------------------------
 
@@ -354,8 +372,8 @@ class SurfaceBSDF(mi.BSDF):
         return bs, dr.select(ok, value / dr.select(ok, pdf, 1.0), 0.0)
 
     def eval_null_transmission(self, si, active=True):
-        point, _ = self.point(si)
-        return dr.select(active, mi.Color3f(1.0 - point.coverage), 0.0)
+        """1 - coverage: the gaps let light through unchanged (needs only ``si.uv``)."""
+        return dr.select(active, mi.Color3f(1.0 - self.textures.coverage(*self._fabric_uv(si))), 0.0)
 
     def has_attribute(self, name, active=True):
         return mi.Bool(name == AMBIENT)

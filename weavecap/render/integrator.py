@@ -71,7 +71,7 @@ class FabricPathIntegrator(mi.SamplingIntegrator):
         crossings = mi.UInt32(0)
         active = mi.Bool(active)
         while active:
-            hit = scene.ray_intersect(ray, mi.RayFlags.All, False, active)
+            hit = scene.ray_intersect(ray, mi.RayFlags.Minimal | mi.RayFlags.UV, False, active)
             blocked = active & hit.is_valid()
             null = hit.bsdf(ray).eval_null_transmission(hit, blocked)
             throughput = dr.select(blocked, throughput * null, throughput)

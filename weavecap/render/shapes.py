@@ -96,11 +96,13 @@ def _profile_sheet(name: str, profile: np.ndarray, height: float, samples: int, 
 
 
 def flat_swatch(width: float = 0.2, height: float = 0.2, *, cells: int = 1) -> Shape:
-    """A flat rectangle in the plane z = 0, facing +z, centred on the origin; ``cells`` quads a side."""
+    """A flat rectangle in the plane z = 0, facing +z, centred on the origin; ``cells`` quads a
+    side. UV (0, 0) is its lower left corner, so a swatch a whole number of repeats wide and
+    high starts a repeat at its top left, as a photo of the fabric does."""
     n = cells + 1
     x, y = np.meshgrid(np.linspace(-width / 2, width / 2, n), np.linspace(-height / 2, height / 2, n))
     positions = np.stack([x.ravel(), y.ravel(), np.zeros(n * n)], axis=1)
-    return Shape("swatch", positions, _grid_faces(n, n), positions[:, :2].copy(),
+    return Shape("swatch", positions, _grid_faces(n, n), positions[:, :2] + (width / 2, height / 2),
                  f"flat swatch {width * 100:g} x {height * 100:g} cm")
 
 

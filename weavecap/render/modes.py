@@ -1,0 +1,158 @@
+"""The table of render modes, and the hook a fold term plugs into.
+
+A mode says how a fabric is shaded and integrated: which Mitsuba BSDF stands for the fabric on
+the mesh, and which integrator renders the scene. ``weavecap render --mode NAME`` looks NAME up
+here. Two are built in:
+
+- ``reference``: path tracing of the surface model (:mod:`weavecap.render.integrator`,
+  ``max_depth`` vertices, Russian roulette) — the ground truth the neural renderers learn;
+- ``direct``: the same with one bounce (direct lighting only), the baseline both neural
+  papers compare with.
+
+Other renderers add theirs without editing this module: a package listed in PLUGINS (the
+woven renderer's ``weavecap.render.woven``, the fold renderer's ``weavecap.render.fold``) is
+imported when a mode or fold term is first asked for, if it exists, and calls
+:func:`register_mode` / :func:`register_fold_term` at import::
+
+    from weavecap.render.modes import Mode, register_mode
+    register_mode(Mode("neural", "woven neural BSDF (Chen et al. 2024)", bsdf=my_bsdf,
+                       integrator=my_integrator, fold=True))
+
+A :class:`FoldTerm` adds a fold's local inter-reflection to a render (``--fold auto|on|off``):
+``auto`` applies the registered term where the mesh has folds and the mode asks for it
+(``Mode.fold``: a one-bounce mode misses that light; path tracing has it already), ``on``
+applies it everywhere it is available (an error if none is registered), ``off`` never.
+"""
+
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass
+from typing import Callable
+
+from ..errors import InputError
+
+#: optional packages that register modes and fold terms when imported (absent ones are skipped)
+PLUGINS = ("weavecap.render.woven", "weavecap.render.fold")
+FOLD_CHOICES = ("auto", "on", "off")
+
+
+@dataclass(frozen=True)
+class Mode:
+    """One way to render.
+
+    Attributes
+    ----------
+    name, description : for ``--mode`` and ``--help``
+    bsdf : ``(fabric, maps, placement, noise, linear) -> mi.BSDF``: the fabric on the mesh
+        (``linear``: whether a texel is big enough in the image to interpolate maps)
+    integrator : ``(lighting, options) -> dict``: the Mitsuba integrator (a ``load_dict`` dict)
+    fold : whether ``--fold auto`` adds a fold term to this mode's renders
+    """
+
+    name: str
+    description: str
+    bsdf: Callable
+    integrator: Callable
+    fold: bool = False
+
+
+@dataclass(frozen=True)
+class FoldTerm:
+    """Local inter-reflection in folds, added to a render.
+
+    Attributes
+    ----------
+    name : for messages and ``--json``
+    has_folds : ``(mesh) -> bool``: whether ``auto`` should apply it to this mesh
+    apply : ``(context) -> image``: the image with the fold term added, given the
+        :class:`weavecap.render.run.RenderContext` of the render (scene, mesh, fabric, maps,
+        camera, lighting, options and the image so far, linear (H, W, 3))
+    """
+
+    name: str
+    has_folds: Callable
+    apply: Callable
+
+
+MODES: dict[str, Mode] = {}
+FOLD_TERMS: list[FoldTerm] = []
+_loaded = False
+
+
+def register_mode(mode: Mode) -> None:
+    """Add (or replace) a mode in the table."""
+    MODES[mode.name] = mode
+
+
+def register_fold_term(term: FoldTerm) -> None:
+    """Add a fold term (the last registered one is used)."""
+    FOLD_TERMS.append(term)
+
+
+def _load_plugins() -> None:
+    global _loaded
+    if _loaded:
+        return
+    _loaded = True
+    for name in PLUGINS:
+        try:
+            importlib.import_module(name)
+        except ModuleNotFoundError as exc:
+            if exc.name != name:  # the package exists but something it needs does not
+                raise
+
+
+def mode(name: str) -> Mode:
+    """The mode ``name``; InputError naming the modes there are."""
+    _load_plugins()
+    if name not in MODES:
+        raise InputError(f"--mode {name!r} is unknown; available: {', '.join(sorted(MODES))}")
+    return MODES[name]
+
+
+def mode_names() -> list[str]:
+    """Every registered mode, built-ins first."""
+    _load_plugins()
+    return sorted(MODES, key=lambda n: (n not in ("reference", "direct"), n))
+
+
+def fold_term(choice: str, chosen: Mode, mesh) -> FoldTerm | None:
+    """The fold term to apply under ``--fold choice`` for this mode and mesh, or None."""
+    if choice not in FOLD_CHOICES:
+        raise InputError(f"--fold {choice!r}: use one of {', '.join(FOLD_CHOICES)}")
+    _load_plugins()
+    if choice == "off":
+        return None
+    term = FOLD_TERMS[-1] if FOLD_TERMS else None
+    if choice == "on":
+        if term is None:
+            raise InputError("--fold on: no fold term is installed (the fold renderer registers one); "
+                             "use --fold auto or off")
+        return term
+    return term if term is not None and chosen.fold and term.has_folds(mesh) else None
+
+
+def _surface_bsdf(fabric, maps, placement, noise, linear):
+    from .bsdf import SurfaceBSDF
+
+    return SurfaceBSDF(fabric, maps, placement, noise, linear=linear)
+
+
+def _path(max_depth: int | None):
+    def integrator(lighting, options) -> dict:
+        from . import integrator as _integrator  # noqa: F401  (registers "weavecap_path")
+
+        props = {"type": "weavecap_path", "max_depth": int(max_depth or options.max_depth), "rr_depth": 5}
+        if lighting.ambient:
+            props["ambient"] = float(lighting.ambient)
+        if lighting.background is not None:
+            props["background"] = float(lighting.background)
+        return props
+    return integrator
+
+
+register_mode(Mode("reference", "path tracing of the surface model (max depth, Russian roulette)",
+                   bsdf=_surface_bsdf, integrator=_path(None)))
+register_mode(Mode("direct", "direct lighting only (one bounce) of the surface model",
+                   bsdf=_surface_bsdf, integrator=_path(2)))
