@@ -11,7 +11,8 @@ import click
 @click.command(context_settings={"max_content_width": 100})
 @click.option("--quick", is_flag=True, help="A smaller fit bench: 3 photos, draft and normal presets (~2 min).")
 @click.option("--render/--no-render", "do_render", default=True, show_default=True,
-              help="Measure the forward model (cold and warm renders, fit steps, memory).")
+              help="Measure the forward model (cold and warm renders, fit steps, memory) and the woven neural "
+                   "renderer against the reference (OUT/woven.json, OUT/woven_*.png; ~15 min).")
 @click.option("--fit/--no-fit", "do_fit", default=True, show_default=True,
               help="Fit the synthetic bench photos at each quality preset.")
 @click.option("-o", "--output", "out", type=click.Path(file_okay=False, path_type=Path), default=Path("bench-out"),
@@ -43,6 +44,13 @@ def bench(quick, do_render, do_fit, out):
             click.echo(f"measuring: {case.name} ...", err=True)
             results.append(run_cold(case))
         click.echo(table(results))
+        click.echo("")
+        from weavecap.render.woven import bench as woven_bench
+
+        woven = woven_bench.run(progress=lambda m: click.echo(m, err=True))
+        out.mkdir(parents=True, exist_ok=True)
+        woven_bench.write(woven, out)
+        click.echo(woven_bench.table(woven))
         click.echo("")
     if do_fit:
         from weavecap import fit_bench

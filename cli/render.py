@@ -32,8 +32,9 @@ def _offset(ctx, param, value: str) -> tuple[float, float]:
 
 
 def _mode_help() -> str:
-    return ("reference: path tracing of the surface model; direct: direct lighting only (one bounce); "
-            "other renderers add their modes.")
+    return ("neural: the woven neural BSDF at each pixel's footprint, direct light, 1 spp by default "
+            "(Chen et al. 2024); reference: path tracing of the surface model; direct: direct lighting only "
+            "(one bounce).")
 
 
 @click.command(context_settings={"max_content_width": 100})
@@ -42,8 +43,9 @@ def _mode_help() -> str:
 @click.option("-o", "--output", "out", required=True, type=click.Path(path_type=Path),
               help="Image to write (.png sRGB, .exr linear, .tif 16-bit); with several PARAMS, a folder "
                    "(one PNG per params file, named after it).")
-@click.option("--mode", default="reference", show_default=True, help=_mode_help())
-@click.option("--spp", type=click.IntRange(1, 65536), default=64, show_default=True, help="Samples per pixel.")
+@click.option("--mode", default="neural", show_default=True, help=_mode_help())
+@click.option("--spp", type=click.IntRange(1, 65536), default=None,
+              help="Samples per pixel  [default: 1 for neural (pixel centres), 64 for the others]")
 @click.option("--size", default="1280x720", show_default=True, callback=_size, help="Image size WxH in pixels.")
 @click.option("--view", default="front", show_default=True,
               help="front (camera on +z looking at -z, y up), back, left, right, top, or AZ,EL in degrees.")
@@ -124,6 +126,9 @@ def render(inputs, out, mode, spp, size, view, camera, fov_deg, margin, light, g
     from weavecap.render.run import RenderOptions, render_fabric
     from weavecap.render.scene import parse_view
 
+    from weavecap.render.modes import mode as find_mode
+
+    spp = spp or find_mode(mode).spp
     options = RenderOptions(mode=mode, spp=spp, size=size, view=parse_view(view), camera=camera, fov_deg=fov_deg,
                             margin=margin, light=light, pitch_mm=pitch_mm, angle_deg=angle_deg, offset=offset,
                             max_depth=max_depth, seed=seed, ground=ground, noise=noise, fold=fold)

@@ -108,7 +108,7 @@ def test_several_params_render_into_a_folder_with_a_contact_sheet_and_json(tmp_p
     doc = json.loads(result.stdout)
     assert [Path(i["output"]).name for i in doc["images"]] == [f"{n}.png" for n in names]
     for item in doc["images"]:
-        assert item["mode"] == "reference" and item["spp"] == 2 and item["pitch_source"] == "default"
+        assert item["mode"] == "neural" and item["spp"] == 2 and item["pitch_source"] == "default"
         assert item["timings"]["render"] > 0 and any("pitch" in n for n in item["notes"])
         assert Path(item["output"]).is_file()
     assert doc["mesh"]["uv_source"] == "file" and doc["mesh"]["triangles"] == 2048

@@ -112,3 +112,25 @@ def test_shards_are_seeded_and_resumable(tmp_path):
     assert [data.is_held_out(config, i) for i in range(2)] == [False, True]
     for key in ("targets", "features", "baseline", "inputs"):
         assert np.isfinite(after[key].astype(np.float64)).all()
+
+
+@pytest.mark.parametrize("side", [FACE, 1])
+def test_drjit_box_filter_equals_numpy(plain, side):
+    """The renderer's box filter (Dr.Jit, float32 tables) reads the same map statistics as the
+    training data (numpy, float64): points, sub-texel to many-repeat boxes, any centre."""
+    from weavecap.render.woven.infer import footprint_filter
+
+    _, maps = plain
+    h, w = maps.shape
+    rng = np.random.default_rng(side)
+    n = 3000
+    x, y = rng.uniform(-50, 80, n), rng.uniform(-30, 60, n)
+    half = np.exp(rng.uniform(np.log(0.05), np.log(80), n))
+    half[:100] = 0.0
+    image = footprint.feature_image(maps, side)
+    sat, mean = footprint.periodic_sat(image)
+    want = footprint.footprint_features(image, sat, mean, x, y, half)
+    f = lambda a: mi.Float(np.ascontiguousarray(a, dtype=np.float32))  # noqa: E731
+    got = footprint_filter(maps).mean(f(x), f(y), f(half), mi.Bool(np.full(n, side == 1)))
+    got = np.stack([np.array(g) for g in got], axis=-1)
+    np.testing.assert_allclose(got, want, atol=2e-3)

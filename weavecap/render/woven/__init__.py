@@ -20,6 +20,11 @@ Importing this package registers the ``neural`` mode of ``weavecap render``
 
 from __future__ import annotations
 
+#: the neural renderer's camera samples: pixel centres (1 spp), or the centres of a grid of
+#: sub-pixels (spp = n × m, each sample's footprint its sub-pixel's), so the footprints tile
+#: the pixel; deterministic (Mitsuba's multi-jittered sampler without its jitter)
+PIXEL_CENTRES = {"type": "multijitter", "jitter": False}
+
 
 def _neural_bsdf(fabric, maps, placement, noise, linear):
     from .bsdf import NeuralSurfaceBSDF
@@ -39,12 +44,10 @@ def _neural_integrator(lighting, options) -> dict:
 
 
 def _register() -> None:
-    try:
-        from ..modes import Mode, register_mode
-    except ModuleNotFoundError:  # the render command is not installed
-        return
+    from ..modes import Mode, register_mode
+
     register_mode(Mode("neural", "woven neural BSDF at the pixel's footprint, one sample a pixel (Chen et al. 2024)",
-                       bsdf=_neural_bsdf, integrator=_neural_integrator, fold=True))
+                       bsdf=_neural_bsdf, integrator=_neural_integrator, fold=True, sampler=PIXEL_CENTRES, spp=1))
 
 
 _register()

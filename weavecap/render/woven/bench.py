@@ -49,9 +49,7 @@ TIMED_FRAMES = 3
 FRAME = (1280, 720)
 
 
-#: the neural renderer's camera samples: pixel centres (spp = k² gives a k × k grid, each
-#: sample's footprint 1/k of the pixel's), so the footprints tile the pixel exactly
-NEURAL_SAMPLER = {"type": "stratified", "jitter": False}
+from . import PIXEL_CENTRES as NEURAL_SAMPLER  # noqa: E402
 
 
 @dataclass(frozen=True)
@@ -396,3 +394,47 @@ def table(results: dict) -> str:
               f"weights {c['weights_mb']:.2f} MB; encoder {c['encoder_ms_max']:.1f} ms a fabric (max); "
               f"white furnace (max hemispherical albedo) {c['furnace_max']:.3f}"]
     return "\n".join(lines)
+
+
+def picture(images: dict, fabric: str, *, scale: int = 2, gain: float = 1.0):
+    """A ``PIL.Image``: for each view of ``fabric`` a row reference | neural | reference at
+    1 spp | |neural − reference| × 4 (sRGB, each image ``scale``× nearest-neighbour)."""
+    from PIL import Image, ImageDraw
+
+    from ...photo import linear_to_srgb
+
+    rows = []
+    for view, im in images[fabric].items():
+        err = np.abs(im["neural"] - im["truth"]) * 4.0
+        rows.append(np.concatenate([im["truth"], im["neural"], im["reference_1spp"], err], axis=1))
+    grid = np.concatenate(rows, axis=0) * gain
+    srgb = np.clip(np.round(linear_to_srgb(np.clip(grid, 0.0, 1.0)) * 255.0), 0, 255).astype(np.uint8)
+    img = Image.fromarray(srgb).resize((srgb.shape[1] * scale, srgb.shape[0] * scale), Image.NEAREST)
+    band = 16
+    out = Image.new("RGB", (img.width, img.height + band), (24, 24, 24))
+    out.paste(img, (0, band))
+    draw = ImageDraw.Draw(out)
+    w = img.width // 4
+    for k, label in enumerate(("reference (direct, truth)", "neural, 1 spp", "reference, 1 spp", "|error| x4")):
+        draw.text((k * w + 4, 2), label, fill=(230, 230, 230))
+    return out
+
+
+def write(results: dict, folder) -> list:
+    """OUT/woven.json (every figure) and one OUT/woven_<fabric>.png picture a fabric."""
+    import json
+    from pathlib import Path
+
+    from ...io import atomic_path, atomic_write_text
+
+    folder = Path(folder)
+    data = {k: v for k, v in results.items() if k != "images"}
+    atomic_write_text(folder / "woven.json", json.dumps(data, indent=1) + "\n")
+    written = [folder / "woven.json"]
+    for name in results["images"]:
+        slug = "".join(c if c.isalnum() else "_" for c in name.split(" (")[0]).strip("_").lower()
+        path = folder / f"woven_{slug}.png"
+        with atomic_path(path) as tmp:
+            picture(results["images"], name).save(tmp, format="PNG")
+        written.append(path)
+    return written

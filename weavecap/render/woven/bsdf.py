@@ -17,24 +17,21 @@ channels, which the fabric's colours weigh (:func:`.terms.colour_coefficients`, 
 - The capture rigs' ambient term (BSDF attribute ``"ambient"``) is the surface model's
   :func:`~weavecap.render.bsdf.ambient_surface` at the footprint's mean maps (exact for a
   point; a mean of normals for a big footprint).
-- ``sample``/``pdf`` follow the surface model's lobes (:func:`sample_surface` at the footprint
-  centre), weighted by the network's value, so any integrator can use it; the neural
-  integrator (:mod:`.integrator`) only evaluates it towards lights.
+- ``sample``/``pdf`` are the surface model's (:class:`~weavecap.render.bsdf.SurfaceBSDF`'s, at
+  the footprint centre), weighted by the network's value, so any integrator can use it; the
+  neural integrator (:mod:`.integrator`) only evaluates it towards lights.
 """
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from ...params import Fabric
-from ..bsdf import (AMBIENT, Placement, SurfacePoint, SurfaceTextures, ambient_surface, pdf_surface, sample_surface,
-                    shading_of)
+from ..bsdf import AMBIENT, Placement, SurfaceBSDF, SurfacePoint, ambient_surface, shading_of
 from ..surface import NoiseMap, SurfaceMaps
 from . import terms as _terms
-from .footprint import FEATURES, baseline_channels
-from .infer import BoxFilter, Decoder, FabricLatents, footprint_filter, load_weights
+from .footprint import baseline_channels, filtered_point
+from .infer import BoxFilter, Decoder, FabricLatents, coverage_filter, footprint_filter, load_weights
 
 mi, dr = _terms._backend()
 
@@ -51,37 +48,29 @@ def shared_model(path=None) -> tuple[dict, dict, FabricLatents]:
     return _MODEL[key]
 
 
-class NeuralSurfaceBSDF(mi.BSDF):
+class NeuralSurfaceBSDF(SurfaceBSDF):
     """``NeuralSurfaceBSDF(fabric, maps, placement, noise=None, weights=None)``: see the
-    module docstring."""
+    module docstring. A :class:`~weavecap.render.bsdf.SurfaceBSDF` (its placement, frames and
+    sampling) whose values are the network's."""
 
     def __init__(self, fabric: Fabric, maps: SurfaceMaps, placement: Placement, noise: NoiseMap | None = None, *,
                  weights=None):
-        mi.BSDF.__init__(self, mi.Properties())
+        SurfaceBSDF.__init__(self, fabric, maps, placement, None)
         self.arrays, self.record, self.encoder = shared_model(weights)
         train = self.record.get("train", {})
         self.use_features = bool(train.get("use_features", True))
         self.use_baseline = bool(train.get("use_baseline", True))
         self.maps = maps
-        self.placement = placement
-        self.textures = SurfaceTextures(maps, None)
         self.features = footprint_filter(maps)
+        self.coverage_box = coverage_filter(maps)
         occ = [np.ascontiguousarray((maps.coverage[s] * maps.occlusion[s])[..., None]) for s in (0, 1)]
         self.occlusion = BoxFilter(occ)
         self.noise = None
         if noise is not None:
             self.noise = BoxFilter([noise.gain[..., None]])
             self.noise_repeats = float(noise.repeats)
-        theta = math.radians(placement.angle_deg)
-        self._cos, self._sin = math.cos(theta), math.sin(theta)
         self.pattern_shape = fabric.shape
         self.set_fabric(fabric)
-        reflection = (mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.DiffuseReflection
-                      | mi.BSDFFlags.FrontSide | mi.BSDFFlags.BackSide)
-        transmission = (mi.BSDFFlags.GlossyTransmission | mi.BSDFFlags.DiffuseTransmission | mi.BSDFFlags.Null
-                        | mi.BSDFFlags.FrontSide | mi.BSDFFlags.BackSide)
-        self.m_components = [reflection, transmission]
-        self.m_flags = reflection | transmission
 
     # -- editing ------------------------------------------------------------------------------
 
@@ -106,14 +95,6 @@ class NeuralSurfaceBSDF(mi.BSDF):
 
     # -- geometry -----------------------------------------------------------------------------
 
-    def _to_face(self, w, back):
-        c, s = self._cos, self._sin
-        return mi.Vector3f(c * w.x + s * w.y, -s * w.x + c * w.y, dr.select(back, -w.z, w.z))
-
-    def _from_face(self, w, back):
-        c, s = self._cos, self._sin
-        return mi.Vector3f(c * w.x - s * w.y, s * w.x + c * w.y, dr.select(back, -w.z, w.z))
-
     def _repeats(self, u, v):
         """A UV vector (mesh units) in repeats along the fabric's s and t (no offset)."""
         pl = self.placement
@@ -123,8 +104,7 @@ class NeuralSurfaceBSDF(mi.BSDF):
     def footprint(self, si):
         """(s, t, size): the hit's fabric coordinates (repeats) and its footprint's side in
         yarn pitches (0 without ray differentials)."""
-        fs, ft = self._repeats(si.uv.x, si.uv.y)
-        fs, ft = fs + self.placement.offset[0], ft + self.placement.offset[1]
+        fs, ft = self._fabric_uv(si)
         dsx, dtx = self._repeats(si.duv_dx.x, si.duv_dx.y)
         dsy, dty = self._repeats(si.duv_dy.x, si.duv_dy.y)
         n_e, n_a = self.pattern_shape
@@ -173,57 +153,34 @@ class NeuralSurfaceBSDF(mi.BSDF):
         back = si.wi.z < 0.0
         s, t, size = self.footprint(si)
         x, y, half = self._texel(s, t, size)
-        return dr.clip(self.features.mean(x, y, half, back)[0], 0.0, 1.0)
+        return dr.clip(self.coverage_box.mean(x, y, half, back)[0], 0.0, 1.0)
 
     def _filtered_point(self, si) -> SurfacePoint:
-        """The maps' footprint means as a SurfacePoint (for the ambient term and sampling)."""
+        """The maps' footprint means as a SurfacePoint (:func:`.footprint.filtered_point`,
+        with the footprint's mean occlusion and noise gain), for the ambient term."""
         back = si.wi.z < 0.0
         s, t, size = self.footprint(si)
         x, y, half = self._texel(s, t, size)
-        f = dict(zip(FEATURES, self.features.mean(x, y, half, back)))
-        c = dr.maximum(f["c"], 1e-6)
-        nx, ny = f["c_nx"] / c, f["c_ny"] / c
-        normal = dr.normalize(mi.Vector3f(nx, ny, dr.sqrt(dr.maximum(1.0 - nx * nx - ny * ny, 1e-4))))
-        point = self.textures.lookup(s, t, back)
-        return SurfacePoint(coverage=dr.clip(f["c"], 0.0, 1.0), warp=dr.clip(f["c_warp"] / c, 0.0, 1.0), normal=normal,
-                            groove=(f["c_groove_p"] / c, f["c_groove_f"] / c),
-                            occlusion=self.occlusion.mean(x, y, half, back)[0] / c, through=point.through,
-                            horizon=point.horizon, gain=self._gain(s, t, size), uv=point.uv)
+        features = self.features.mean(x, y, half, back)
+        point = filtered_point(features)
+        point.occlusion = self.occlusion.mean(x, y, half, back)[0] / dr.maximum(features[0], 1e-6)
+        point.gain = self._gain(s, t, size)
+        return point
 
     # -- the BSDF interface -------------------------------------------------------------------
 
     def eval(self, ctx, si, wo, active=True):
         return self.neural(si, wo, active)
 
-    def pdf(self, ctx, si, wo, active=True):
-        back = si.wi.z < 0.0
-        point = self._filtered_point(si)
-        pdf = pdf_surface(self.shading, self.colours, point, self._to_face(si.wi, back), self._to_face(wo, back))
-        return dr.select(active, pdf, 0.0)
-
     def eval_pdf(self, ctx, si, wo, active=True):
         return self.eval(ctx, si, wo, active), self.pdf(ctx, si, wo, active)
 
     def sample(self, ctx, si, sample1, sample2, active=True):
-        back = si.wi.z < 0.0
-        point = self._filtered_point(si)
-        wo_f, pdf, _, lobe = sample_surface(self.shading, self.colours, point, self._to_face(si.wi, back), sample1,
-                                            sample2)
-        bs = mi.BSDFSample3f()
-        bs.wo = self._from_face(wo_f, back)
-        bs.pdf = pdf
-        bs.eta = 1.0
-        reflected = wo_f.z > 0.0
-        bs.sampled_component = dr.select(reflected, 0, 1)
-        diffuse = lobe >= 3
-        bs.sampled_type = mi.UInt32(+dr.select(
-            reflected,
-            dr.select(diffuse, mi.UInt32(+mi.BSDFFlags.DiffuseReflection), mi.UInt32(+mi.BSDFFlags.GlossyReflection)),
-            dr.select(diffuse, mi.UInt32(+mi.BSDFFlags.DiffuseTransmission),
-                      mi.UInt32(+mi.BSDFFlags.GlossyTransmission))))
-        ok = active & (pdf > 0.0)
+        """The surface model's sampling (:meth:`SurfaceBSDF.sample`), the network's value."""
+        bs, _ = SurfaceBSDF.sample(self, ctx, si, sample1, sample2, active)
+        ok = active & (bs.pdf > 0.0)
         value = self.neural(si, bs.wo, ok)
-        return bs, dr.select(ok, value / dr.select(ok, pdf, 1.0), 0.0)
+        return bs, dr.select(ok, value / dr.select(ok, bs.pdf, 1.0), 0.0)
 
     def eval_null_transmission(self, si, active=True):
         return dr.select(active, mi.Color3f(1.0 - self.coverage(si)), 0.0)

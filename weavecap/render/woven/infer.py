@@ -74,8 +74,13 @@ class FabricLatents:
         if key not in self._cache:
             image = np.stack([encoder_image(maps, FACE), encoder_image(maps, BACK)])
             params = np.repeat(encoder_params(fabric)[None], 2, axis=0)
-            with torch.no_grad():
-                z = self.model.encoder(torch.from_numpy(image), torch.from_numpy(params)).numpy()
+            threads = torch.get_num_threads()
+            torch.set_num_threads(1)  # a small network: more threads only contend (8× slower on 2 busy cores)
+            try:
+                with torch.no_grad():
+                    z = self.model.encoder(torch.from_numpy(image), torch.from_numpy(params)).numpy()
+            finally:
+                torch.set_num_threads(threads)
             self._cache = {key: z.astype(np.float32)}
         return self._cache[key]
 
@@ -92,68 +97,85 @@ class BoxFilter:
     """Means of a periodic image (one repeat, (H, W, C)) over square boxes, in Dr.Jit.
 
     The zero-mean summed-area table of :func:`.footprint.periodic_sat` is a linearly
-    interpolated, clamped texture of (H + 1) × (W + 1) nodes: bilinear interpolation of it is
-    exact for an image constant per texel, and the periodic extension is the formula of
-    :mod:`.footprint`. Boxes under MIN_HALF_TEXELS in half-side are points: the image itself,
-    interpolated (:func:`.footprint.footprint_features`). ``images``: one per side (face, back).
+    interpolated texture of (H + 1) × (W + 1) nodes: bilinear interpolation of it is exact for
+    an image constant per texel, and the periodic extension is the formula of
+    :mod:`.footprint` (the box's centre is first brought into the repeat, so the extension's
+    extra lookups happen only for boxes that cross its edge). Boxes under MIN_HALF_TEXELS in
+    half-side are points: the image itself, interpolated (as
+    :func:`.footprint.footprint_features`). ``images``: one per side (face, back), stacked in
+    one texture so a lookup serves either side.
     """
 
     def __init__(self, images: list[np.ndarray]):
         mi, dr = _backend()
         self.shape = images[0].shape[:2]
-        self.tables, self.means, self.images = [], [], []
-        for image in images:
-            self.images.append(mi.Texture2f(mi.TensorXf(np.ascontiguousarray(image, dtype=np.float32)),
-                                            filter_mode=dr.FilterMode.Linear, wrap_mode=dr.WrapMode.Repeat))
-            sat, mean = periodic_sat(image)
-            self.tables.append(mi.Texture2f(mi.TensorXf(sat.astype(np.float32)), filter_mode=dr.FilterMode.Linear,
-                                            wrap_mode=dr.WrapMode.Clamp))
-            self.means.append([mi.Float(float(m)) for m in mean])
+        self.sides = len(images)
         self.channels = images[0].shape[-1]
+        tables, means, padded = [], [], []
+        for image in images:
+            sat, mean = periodic_sat(image)
+            tables.append(sat)
+            means.append(mean)
+            padded.append(np.concatenate([image[-1:], image, image[:1]], axis=0))  # wrapped rows
+        self.table = mi.Texture2f(mi.TensorXf(np.ascontiguousarray(np.concatenate(tables), dtype=np.float32)),
+                                  filter_mode=dr.FilterMode.Linear, wrap_mode=dr.WrapMode.Clamp)
+        self.image = mi.Texture2f(mi.TensorXf(np.ascontiguousarray(np.concatenate(padded), dtype=np.float32)),
+                                  filter_mode=dr.FilterMode.Linear, wrap_mode=dr.WrapMode.Repeat)
+        self.means = [[float(m) for m in mean] for mean in means]
 
-    def _table(self, k, x, y, active):
+    def _table(self, x, y, row0, active):
+        """The stacked table at node coordinates (x, y) of the side starting at ``row0``."""
         mi, _ = _backend()
         h, w = self.shape
-        pos = mi.Point2f((x + 0.5) / (w + 1), (y + 0.5) / (h + 1))
-        return self.tables[k].eval(pos, active)
+        pos = mi.Point2f((x + 0.5) / (w + 1), (row0 + y + 0.5) / (self.sides * (h + 1)))
+        return self.table.eval(pos, active)
 
-    def _extended(self, k, x, y, active):
+    def _extended(self, x, y, row0, active):
         mi, dr = _backend()
         h, w = self.shape
         qx, qy = dr.floor(x / w), dr.floor(y / h)
         rx, ry = x - qx * w, y - qy * h
-        base = self._table(k, rx, ry, active)
-        col = self._table(k, mi.Float(float(w)), ry, active & (qx != 0.0))
-        row = self._table(k, rx, mi.Float(float(h)), active & (qy != 0.0))
+        base = self._table(rx, ry, row0, active)
+        col = self._table(mi.Float(float(w)), ry, row0, active & (qx != 0.0))
+        row = self._table(rx, mi.Float(float(h)), row0, active & (qy != 0.0))
         return [b + dr.select(qx != 0.0, qx * c, 0.0) + dr.select(qy != 0.0, qy * r, 0.0)
                 for b, c, r in zip(base, col, row)]
 
-    def mean(self, x, y, half, side=None):
+    def mean(self, x, y, half, side=None, active=True):
         """Box means (list of C Floats) at texel coordinates (x, y), half side ``half``
-        (texels, at least MIN_HALF_TEXELS); ``side``: Bool, True for the second image."""
+        (texels); ``side``: Bool, True for the second image (the back)."""
         mi, dr = _backend()
         h, w = self.shape
+        active = mi.Bool(active)
+        back = mi.Bool(False) if side is None or self.sides == 1 else side
+        x = x - dr.floor(x / w) * w
+        y = y - dr.floor(y / h) * h
         point = half < MIN_HALF_TEXELS
         half = dr.maximum(half, MIN_HALF_TEXELS)
-        sides = [mi.Bool(True)] if len(self.tables) == 1 else [~side, side]
-        out = [mi.Float(0.0) for _ in range(self.channels)]
-        for k, active in enumerate(sides):
-            box = active & ~point
-            s11 = self._extended(k, x + half, y + half, box)
-            s01 = self._extended(k, x - half, y + half, box)
-            s10 = self._extended(k, x + half, y - half, box)
-            s00 = self._extended(k, x - half, y - half, box)
-            at = self.images[k].eval(mi.Point2f(x / w, y / h), active & point)
-            norm = 1.0 / (4.0 * half * half)
-            for c in range(self.channels):
-                value = dr.select(point, at[c], self.means[k][c] + (s11[c] - s01[c] - s10[c] + s00[c]) * norm)
-                out[c] = dr.select(active, value, out[c])
+        box = active & ~point
+        row0 = dr.select(back, float(h + 1), 0.0)
+        s11 = self._extended(x + half, y + half, row0, box)
+        s01 = self._extended(x - half, y + half, row0, box)
+        s10 = self._extended(x + half, y - half, row0, box)
+        s00 = self._extended(x - half, y - half, row0, box)
+        pad_row0 = dr.select(back, float(h + 2), 0.0)
+        at = self.image.eval(mi.Point2f(x / w, (pad_row0 + 1.0 + y) / (self.sides * (h + 2))), active & point)
+        norm = 1.0 / (4.0 * half * half)
+        out = []
+        for c in range(self.channels):
+            mean = dr.select(back, self.means[-1][c], self.means[0][c])
+            out.append(dr.select(point, at[c], mean + (s11[c] - s01[c] - s10[c] + s00[c]) * norm))
         return out
 
 
 def footprint_filter(maps: SurfaceMaps) -> BoxFilter:
     """The decoder's map statistics (:data:`.footprint.FEATURES`) of both sides."""
     return BoxFilter([feature_image(maps, FACE), feature_image(maps, BACK)])
+
+
+def coverage_filter(maps: SurfaceMaps) -> BoxFilter:
+    """The coverage alone (the first of :data:`.footprint.FEATURES`), for null transmission."""
+    return BoxFilter([maps.coverage[FACE][..., None], maps.coverage[BACK][..., None]])
 
 
 def _blob(x, bins: int, periodic: bool):
@@ -192,6 +214,9 @@ class Decoder:
         layers = [linear(first, np.zeros(first.shape[0], dtype=np.float32)), linear(a["fuse2.weight"], a["fuse2.bias"])]
         layers += [linear(a[f"ang{i}.weight"], a[f"ang{i}.bias"]) for i in range(1, 6)]
         self.layers = nn.pack(*layers, layout="inference")
+        # evaluated now: left lazy, the packing would be traced into every render kernel
+        # (measured 7.5× slower frames)
+        dr.eval(self.layers)
         self.act = nn.LeakyReLU(_net.SLOPE)
 
     def _log_k(self, wo):

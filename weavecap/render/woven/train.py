@@ -174,7 +174,7 @@ def evaluate(model, dataset: Dataset, materials: np.ndarray, *, queries: int = 2
     from .network import to_values
 
     rng = np.random.default_rng(seed)
-    preds, truths, sizes, below, shapes = [], [], [], [], []
+    preds, truths, sizes, below, shapes, per_material = [], [], [], [], [], []
     if model is not None:
         model.eval()
     with torch.no_grad():
@@ -192,6 +192,7 @@ def evaluate(model, dataset: Dataset, materials: np.ndarray, *, queries: int = 2
             coef = dataset.colours[m].astype(np.float64)
             preds.append(values @ coef)
             truths.append(dataset.targets[idx].astype(np.float64) @ coef)
+            per_material.append(float(((preds[-1] - truths[-1]) ** 2).sum() / max((truths[-1] ** 2).sum(), 1e-30)))
             sizes.append(dataset.inputs[idx, 2] / max(dataset.shape[m]))
             below.append(dataset.inputs[idx, 8] < 0.0)
             shapes.append(np.full(len(idx), 1.0 / max(dataset.shape[m])))
@@ -207,7 +208,8 @@ def evaluate(model, dataset: Dataset, materials: np.ndarray, *, queries: int = 2
         return {"queries": int(sel.sum()), "rel_mse": float((e ** 2).sum() / max((truth[sel] ** 2).sum(), 1e-30)),
                 "rel_mae": float(np.abs(e).sum() / max(np.abs(truth[sel]).sum(), 1e-30))}
 
-    out = {"all": errors(np.ones_like(size, dtype=bool)), "reflection": errors(~under), "transmission": errors(under),
+    out = {"median_material_rel_mse": float(np.median(per_material)),
+           "all": errors(np.ones_like(size, dtype=bool)), "reflection": errors(~under), "transmission": errors(under),
            "point": errors(size == 0.0), "sub_yarn": errors((size > 0) & (size < yarn)),
            "yarn_to_repeat": errors((size >= yarn) & (size < 1.0)), "beyond_repeat": errors(size >= 1.0)}
     return out
