@@ -8,7 +8,7 @@ from pathlib import Path
 
 import click
 
-from .options import force_option, quiet_option, seed_option
+from .options import force_option, quiet_option, seed_option, verbose_option
 
 
 def _woven(work: Path, out_dir: Path | None, fabrics: int, steps: int, seed: int, force: bool, say, progress) -> None:
@@ -77,9 +77,10 @@ def _woven(work: Path, out_dir: Path | None, fabrics: int, steps: int, seed: int
               help="Woven: training steps (4 materials x 1024 queries each).")
 @seed_option
 @force_option
+@verbose_option
 @quiet_option
 def train_renderer(work: Path, out_dir: Path | None, do_woven: bool, fabrics: int, steps: int, seed: int, force: bool,
-                   quiet: bool) -> None:
+                   verbose: int, quiet: bool) -> None:
     """Make the training data of the output renderers and train their networks.
 
     Woven: random fabrics (plain, twills, satins, baskets, ribs, random patterns up to 8x8,
@@ -91,14 +92,20 @@ def train_renderer(work: Path, out_dir: Path | None, do_woven: bool, fabrics: in
 
     \b
     Examples:
-      weavecap train-renderer                  # the shipped weights (about 2 hours on 2 busy cores)
+      weavecap train-renderer                  # the shipped weights (about 65 min on 2 busy cores)
       weavecap train-renderer --work /tmp/r -o /tmp/weights --fabrics 4 --steps 20
     """
+    import sys
+
     def say(message: str) -> None:
         if not quiet:
             click.echo(f"weavecap train-renderer: {message}", err=True)
 
+    def progress(message: str) -> None:  # on a terminal, or with -v
+        if not quiet and (sys.stderr.isatty() or verbose > 0):
+            say(message)
+
     t0 = time.perf_counter()
     if do_woven:
-        _woven(work, out_dir, fabrics, steps, seed, force, say, say)
+        _woven(work, out_dir, fabrics, steps, seed, force, say, progress)
     say(f"done in {time.perf_counter() - t0:.0f} s")

@@ -51,9 +51,10 @@ def torch_model(arrays: dict, record: dict | None = None):
     import torch
 
     train = (record or {}).get("train", {})
-    widths = tuple(train.get("encoder_widths", _net.ENCODER_WIDTHS))
-    use_features = bool(train.get("use_features", True))
-    model = _net.WovenNet(use_features=use_features, encoder_widths=widths)
+    model = _net.WovenNet(use_features=bool(train.get("use_features", True)),
+                          use_baseline=bool(train.get("use_baseline", True)),
+                          encoder_widths=tuple(train.get("encoder_widths", _net.ENCODER_WIDTHS)),
+                          width=int(train.get("width", _net.WIDTH)))
     model.load_state_dict({k: torch.from_numpy(v) for k, v in arrays.items()})
     model.eval()
     return model
@@ -214,9 +215,7 @@ class Decoder:
         layers = [linear(first, np.zeros(first.shape[0], dtype=np.float32)), linear(a["fuse2.weight"], a["fuse2.bias"])]
         layers += [linear(a[f"ang{i}.weight"], a[f"ang{i}.bias"]) for i in range(1, 6)]
         self.layers = nn.pack(*layers, layout="inference")
-        # evaluated now: left lazy, the packing would be traced into every render kernel
-        # (measured 7.5× slower frames)
-        dr.eval(self.layers)
+        dr.eval(self.layers)  # packed once here, not traced into the render kernels
         self.act = nn.LeakyReLU(_net.SLOPE)
 
     def _log_k(self, wo):

@@ -190,10 +190,11 @@ class WovenNet(nn.Module):
     """Encoder and decoder together; ``forward(image, params, material, inputs, features)``
     with ``material`` (Q,) indexing the B materials of ``image``/``params``."""
 
-    def __init__(self, *, use_features: bool = True, use_baseline: bool = True, encoder_widths=ENCODER_WIDTHS):
+    def __init__(self, *, use_features: bool = True, use_baseline: bool = True, encoder_widths=ENCODER_WIDTHS,
+                 width: int = WIDTH):
         super().__init__()
         self.encoder = Encoder(encoder_widths)
-        self.decoder = Decoder(use_features=use_features, use_baseline=use_baseline)
+        self.decoder = Decoder(use_features=use_features, use_baseline=use_baseline, width=width)
 
     def forward(self, image, params, material, inputs, features, baseline):
         z = self.encoder(image, params)

@@ -40,6 +40,7 @@ class TrainConfig:
     use_features: bool = True
     use_baseline: bool = True
     encoder_widths: tuple = (16, 32, 64, 64)
+    width: int = 64  # the decoder's layers
     seed: int = 0
     threads: int = 1  # one thread: on the loaded 2 cores, 2 threads ran 8× slower (docs/woven.md)
 
@@ -81,7 +82,7 @@ class Dataset:
         """A batch: ``materials`` materials drawn from ``pool`` (default: the training ones),
         ``queries`` random queries of each."""
         pool = self.train_materials if pool is None else pool
-        chosen = rng.choice(pool, materials, replace=False)
+        chosen = rng.choice(pool, materials, replace=len(pool) < materials)
         idx = np.concatenate([rng.integers(self.ranges[m, 0], self.ranges[m, 1], queries) for m in chosen])
         return {"image": self.image[chosen].astype(np.float32), "params": self.params[chosen],
                 "material": np.repeat(np.arange(materials), queries), "inputs": self.inputs[idx],
@@ -109,7 +110,7 @@ def build(config: TrainConfig):
 
     torch.manual_seed(config.seed)
     return WovenNet(use_features=config.use_features, use_baseline=config.use_baseline,
-                    encoder_widths=tuple(config.encoder_widths))
+                    encoder_widths=tuple(config.encoder_widths), width=config.width)
 
 
 def train(dataset: Dataset, folder: Path, config: TrainConfig, *, progress=None, log=None):
