@@ -12,7 +12,7 @@ import click
 @click.option("--quick", is_flag=True, help="A smaller fit bench: 3 photos, draft and normal presets (~2 min).")
 @click.option("--render/--no-render", "do_render", default=True, show_default=True,
               help="Measure the forward model (cold and warm renders, fit steps, memory) and the woven neural "
-                   "renderer against the reference (OUT/woven.json, OUT/woven_*.png; ~15 min).")
+                   "renderer against the reference (OUT/woven.json, OUT/woven_*.png; ~10 min).")
 @click.option("--fit/--no-fit", "do_fit", default=True, show_default=True,
               help="Fit the synthetic bench photos at each quality preset.")
 @click.option("-o", "--output", "out", type=click.Path(file_okay=False, path_type=Path), default=Path("bench-out"),

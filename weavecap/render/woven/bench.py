@@ -14,16 +14,19 @@ For each fabric and view (SIZE² pixels):
 - truth: the direct-lighting reference (:class:`weavecap.render.bsdf.SurfaceBSDF` with the
   ``weavecap_path`` integrator at ``max_depth=2``, as ``--mode direct``) at TRUTH_SPP;
 - neural: :class:`.bsdf.NeuralSurfaceBSDF` with ``woven_direct`` at one sample a pixel;
-- the reference at 1 spp, at equal time (the spp its measured time per sample allows in the
-  neural frame's time), and at REF_SPPS, other seeds than the truth's; its MSE against spp is
-  interpolated (log–log) to the spp where it reaches the neural MSE, and that time over the
-  neural time is the speed-up at equal error (extrapolated with MSE ∝ 1/spp past the last).
+- the reference at 1 spp, at equal time, and at REF_SPPS, other seeds than the truth's; its
+  MSE against spp is interpolated (log–log) to the spp where it reaches the neural MSE
+  (extrapolated with MSE ∝ 1/spp past the last), and that spp's time over the neural time is
+  the speed-up at equal error.
 
-Speed, side by side in one process: a 1280×720 frame of the close view, warm (median of
-TIMED_FRAMES after one), neural against a plain diffuse-textured sheet (Mitsuba's ``diffuse``
-with the fabric's colour texture, ``direct``) at 1 spp; the encoder per fabric; the weights'
-size; a white furnace test of the network (its hemispherical albedo, reflection plus
-transmission, ≤ 1.05).
+Times are frame times (:func:`frame_costs`, per fabric, side by side in one process): a
+1280×720 frame of the close view, warm (median of TIMED_FRAMES after one), of the neural
+renderer at 1 spp, of the reference at 1 and FRAME_SPP spp (a call's fixed cost plus a
+sample's), and of a plain diffuse-textured sheet (Mitsuba's ``diffuse`` with the fabric's
+colour texture, ``direct``) at 1 spp; the equal-time spp is what the reference renders in the
+neural frame's time. (A 96² render's time is mostly a call's overhead, for both.) Also the
+encoder per fabric, the weights' size and a white furnace test of the network (its
+hemispherical albedo, reflection plus transmission, ≤ 1.05).
 """
 
 from __future__ import annotations
@@ -47,6 +50,7 @@ KEY_LIGHT = ((-0.55, 0.55, 0.65), 3.0)  # studio's key: direction towards it (sh
 BACKDROP = 0.02
 TIMED_FRAMES = 3
 FRAME = (1280, 720)
+FRAME_SPP = 16  # the reference's second timed frame
 
 
 from . import PIXEL_CENTRES as NEURAL_SAMPLER  # noqa: E402
@@ -215,8 +219,39 @@ def _surface_bsdf(fabric, maps, linear: bool):
         return SurfaceBSDF(fabric, maps, placement_of(fabric))
 
 
-def measure_view(fabric: Fabric, maps, view: View, *, size: int = SIZE, truth_spp: int = TRUTH_SPP) -> dict:
-    """Every figure of one fabric and view (module docstring), and the images."""
+def frame_costs(fabric: Fabric, maps, *, frames: int = TIMED_FRAMES) -> dict:
+    """Warm FRAME-sized frame times of the close view, side by side: the neural renderer at
+    1 spp, the reference at 1 and FRAME_SPP spp (its time is then ``a + b · spp``: a call's
+    fixed cost and a sample's), and a plain diffuse-textured direct render at 1 spp. Times
+    are taken at frame size, where the per-pixel work (not a call's overhead, which is most of
+    a 96² render's time) decides them."""
+    from .bsdf import NeuralSurfaceBSDF
+
+    n_e, n_a = fabric.shape
+    repeat = max(n_e, n_a) * PITCH_M
+    view = VIEWS[0]
+    cases = {"neural": (NeuralSurfaceBSDF(fabric, maps, placement_of(fabric)), neural_integrator(), NEURAL_SAMPLER, 1),
+             "reference_1": (_surface_bsdf(fabric, maps, True), reference_integrator(), None, 1),
+             f"reference_{FRAME_SPP}": (_surface_bsdf(fabric, maps, True), reference_integrator(), None, FRAME_SPP),
+             "plain": (plain_bsdf(maps, fabric), {"type": "direct"}, None, 1)}
+    out = {"size": list(FRAME)}
+    for name, (bsdf, integrator, sampler, spp) in cases.items():
+        sc = scene(bsdf, integrator, view, repeat, FRAME, spp, sampler=sampler)
+        _, cold = render(sc, spp, seed=0)
+        out[f"{name}_cold_s"] = cold
+        out[f"{name}_warm_s"] = statistics.median(render(sc, spp, seed=k + 1)[1] for k in range(frames))
+    t1, tn = out["reference_1_warm_s"], out[f"reference_{FRAME_SPP}_warm_s"]
+    out["reference_per_spp_s"] = max((tn - t1) / (FRAME_SPP - 1), 1e-9)
+    out["reference_fixed_s"] = max(t1 - out["reference_per_spp_s"], 0.0)
+    out["ratio_to_plain"] = out["neural_warm_s"] / out["plain_warm_s"]
+    out["equal_time_spp"] = max(1, int((out["neural_warm_s"] - out["reference_fixed_s"]) / out["reference_per_spp_s"]))
+    return out
+
+
+def measure_view(fabric: Fabric, maps, view: View, costs: dict, *, size: int = SIZE,
+                 truth_spp: int = TRUTH_SPP) -> dict:
+    """Every figure of one fabric and view (module docstring), and the images; ``costs``:
+    :func:`frame_costs` of the fabric (the equal-time spp and the speed-up use them)."""
     from .bsdf import NeuralSurfaceBSDF
 
     n_e, n_a = fabric.shape
@@ -235,17 +270,17 @@ def measure_view(fabric: Fabric, maps, view: View, *, size: int = SIZE, truth_sp
         errors.append(mse(image, truth))
         times.append(seconds)
         images[spp] = image
-    per_spp = max((times[-1] - times[-2]) / (REF_SPPS[-1] - REF_SPPS[-2]), 1e-9)
-    equal_spp = max(1, int(round(neural_s / per_spp)))
+    equal_spp = costs["equal_time_spp"]
     equal, _ = render(ref_scene, equal_spp, seed=99)
     neural_mse = mse(neural, truth)
     reach, extrapolated = spp_to_reach(list(REF_SPPS), errors, neural_mse)
+    reach_s = costs["reference_fixed_s"] + costs["reference_per_spp_s"] * reach
     return {"view": view.name, "pixels_per_repeat": view.pixels_per_repeat, "size": size, "truth_spp": truth_spp,
             "truth_seconds": truth_s, "neural_mse": neural_mse, "neural_seconds": neural_s,
             "reference_mse": dict(zip(map(str, REF_SPPS), errors)), "reference_seconds": dict(zip(map(str, REF_SPPS), times)),
-            "seconds_per_spp": per_spp, "equal_time_spp": equal_spp, "equal_time_mse": mse(equal, truth),
+            "equal_time_spp": equal_spp, "equal_time_mse": mse(equal, truth),
             "spp_to_reach_neural": reach, "extrapolated": extrapolated,
-            "speedup_at_equal_error": reach * per_spp / max(neural_s, 1e-9),
+            "speedup_at_equal_error": reach_s / costs["neural_warm_s"],
             "images": {"truth": truth, "neural": neural, "reference_1spp": images[1], "equal_time": equal}}
 
 
@@ -294,26 +329,6 @@ def furnace(fabric: Fabric, maps, *, views: int = 6, directions: int = 64, seed:
     return {"neural_max_albedo": worst_net, "surface_model_max_albedo": worst_ref}
 
 
-def frame_times(fabric: Fabric, maps, *, frames: int = TIMED_FRAMES) -> dict:
-    """A FRAME-sized frame of the close view, neural and plain diffuse-textured direct at
-    1 spp, side by side: first call (compiling) and the median of ``frames`` warm calls."""
-    from .bsdf import NeuralSurfaceBSDF
-
-    n_e, n_a = fabric.shape
-    repeat = max(n_e, n_a) * PITCH_M
-    view = VIEWS[0]
-    out = {"size": list(FRAME)}
-    for name, bsdf, integrator in (("neural", NeuralSurfaceBSDF(fabric, maps, placement_of(fabric)), neural_integrator()),
-                                   ("plain", plain_bsdf(maps, fabric), {"type": "direct"})):
-        sc = scene(bsdf, integrator, view, repeat, FRAME, 1, sampler=NEURAL_SAMPLER if name == "neural" else None)
-        _, cold = render(sc, 1, seed=0)
-        warm = [render(sc, 1, seed=k + 1)[1] for k in range(frames)]
-        out[f"{name}_cold_s"] = cold
-        out[f"{name}_warm_s"] = statistics.median(warm)
-    out["ratio"] = out["neural_warm_s"] / out["plain_warm_s"]
-    return out
-
-
 def encoder_time(fabric: Fabric, maps, *, calls: int = 5) -> float:
     """Median seconds to encode one fabric (both sides) from its maps, after one call."""
     from .bsdf import shared_model
@@ -336,21 +351,21 @@ def run(*, views=VIEWS, size: int = SIZE, truth_spp: int = TRUTH_SPP, progress=N
     from .infer import weights_path
 
     say = progress or (lambda message: None)
-    rows, images, encoders, furnaces = [], {}, [], []
+    rows, images, encoders, furnaces, costs = [], {}, [], [], {}
     fabrics = bench_fabrics()
     for name, seen, fabric in fabrics:
         maps = bake(fabric, texels_per_yarn=16)
         encoders.append(encoder_time(fabric, maps))
         furnaces.append(furnace(fabric, maps))
+        say(f"woven bench: {name}, {FRAME[0]}x{FRAME[1]} frame times")
+        costs[name] = frame_costs(fabric, maps)
         images[name] = {}
         for view in views:
             say(f"woven bench: {name}, {view.name} view")
-            result = measure_view(fabric, maps, view, size=size, truth_spp=truth_spp)
+            result = measure_view(fabric, maps, view, costs[name], size=size, truth_spp=truth_spp)
             images[name][view.name] = result.pop("images")
             rows.append({"fabric": name, "seen": seen, **result})
-    name, _, fabric = fabrics[0]
-    say("woven bench: 1280x720 frame times")
-    frames = frame_times(fabric, bake(fabric, texels_per_yarn=16))
+    frames = costs[fabrics[0][0]]
     by_fabric = {}
     for r in rows:
         by_fabric.setdefault(r["fabric"], []).append(r)
@@ -361,12 +376,12 @@ def run(*, views=VIEWS, size: int = SIZE, truth_spp: int = TRUTH_SPP, progress=N
         "no_moire_far_not_worse_than_close": all(moire.values()),
         "speedup_at_equal_error_min": float(min(r["speedup_at_equal_error"] for r in rows)),
         "speedup_at_equal_error_median": float(np.median([r["speedup_at_equal_error"] for r in rows])),
-        "frame_ratio_to_plain": frames["ratio"],
+        "frame_ratio_to_plain": float(max(c["ratio_to_plain"] for c in costs.values())),
         "weights_mb": weights_path().stat().st_size / 1e6,
         "encoder_ms_max": 1000.0 * max(encoders),
         "furnace_max": max(f["neural_max_albedo"] for f in furnaces),
     }
-    return {"views": rows, "frames": frames, "encoder_seconds": dict(zip([f[0] for f in fabrics], encoders)),
+    return {"views": rows, "frames": frames, "frame_costs": costs, "encoder_seconds": dict(zip([f[0] for f in fabrics], encoders)),
             "furnace": dict(zip([f[0] for f in fabrics], furnaces)), "moire": moire, "criteria": criteria,
             "images": images}
 
@@ -389,8 +404,11 @@ def table(results: dict) -> str:
               f"no moire (farthest view's error <= nearest's), every fabric: {c['no_moire_far_not_worse_than_close']}",
               f"time for the reference to reach the neural MSE / neural time: min {c['speedup_at_equal_error_min']:.1f}x, "
               f"median {c['speedup_at_equal_error_median']:.1f}x ('+': extrapolated past {REF_SPPS[-1]} spp)",
-              f"{fr['size'][0]}x{fr['size'][1]} frame, warm: neural {fr['neural_warm_s']:.3f} s, plain diffuse direct "
-              f"{fr['plain_warm_s']:.3f} s (ratio {fr['ratio']:.2f}); cold {fr['neural_cold_s']:.2f} / {fr['plain_cold_s']:.2f} s",
+              f"{fr['size'][0]}x{fr['size'][1]} frame of {results['views'][0]['fabric']}, warm: neural "
+              f"{fr['neural_warm_s']:.3f} s, plain diffuse direct {fr['plain_warm_s']:.3f} s (ratio "
+              f"{fr['ratio_to_plain']:.2f}; worst fabric {c['frame_ratio_to_plain']:.2f}); reference "
+              f"{fr['reference_fixed_s']:.3f} s + {fr['reference_per_spp_s']:.3f} s a sample (equal time: "
+              f"{fr['equal_time_spp']} spp); cold neural {fr['neural_cold_s']:.2f} s, plain {fr['plain_cold_s']:.2f} s",
               f"weights {c['weights_mb']:.2f} MB; encoder {c['encoder_ms_max']:.1f} ms a fabric (max); "
               f"white furnace (max hemispherical albedo) {c['furnace_max']:.3f}"]
     return "\n".join(lines)
