@@ -36,7 +36,7 @@ SHARED_MESHES = Path(__file__).resolve().parents[2] / ".." / "shared" / "meshes"
 FABRIC = fixture_path("params", "twill_2_1.json")
 SIZE, SPP, DEPTH = (1280, 720), 64, 8
 QUICK_MESHES = ("swatch",)
-WARM_ROUNDS = 2
+WARM_ROUNDS = 4
 
 
 @dataclass(frozen=True)
