@@ -1,5 +1,5 @@
 # Set-up and entry points for a fresh machine. See README.md.
-#   make demo   install, then fit the bundled fixture photo (the main job) and re-render the result
+#   make demo   install, fit the bundled fixture photo (the main job), re-render it, and render it on a skirt
 #   make test   install, run the test suite, then check the built wheel (what .ci/run calls)
 PYTHON ?= python3
 VENV   ?= .venv
@@ -22,6 +22,9 @@ $(STAMP): pyproject.toml
 demo: install
 	$(BIN)/weavecap fit fixtures/photos/twill_3_1.png -o out/twill_3_1 --force
 	$(BIN)/weavecap synth out/twill_3_1/params.json -o out/twill_3_1/resynth.png --tiles 4x4 --size 512 --force
+	# the captured fabric on a garment (a coarse 3 mm pitch, so the weave shows at this size)
+	$(BIN)/weavecap render out/twill_3_1/params.json fixtures/meshes/skirt.obj -o out/twill_3_1/skirt.png \
+	  --size 560x420 --view 20,12 --pitch-mm 3 --spp 128 --force
 
 test: install
 	$(BIN)/python -m pytest -q -p no:cacheprovider

@@ -56,8 +56,8 @@ def export(params_file, out, formats, pitch_mm, texels_per_yarn, repeats, bits, 
 
     \b
     wif      the weave as a WIF 1.1 draft for weaving software and looms (NAME.wif)
-    pbr      PBR maps for Blender, Substance, Unreal, Unity: base colour, normal,
-             roughness, opacity, height + their size in mm (pbr/)
+    pbr      PBR maps for Blender, Substance, Unreal, Unity: base colour, transmission,
+             normal, roughness, opacity, height + their size in mm (pbr/)
     u3m      U3M 1.1 material for CLO 3D and Browzwear (u3m/NAME.u3m + textures/)
     gltf     a glTF 2.0 swatch with the material, for web viewers (NAME.glb)
     mitsuba  Mitsuba 3 scenes of a swatch: plain principled BSDF, and weavecap's own

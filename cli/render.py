@@ -8,7 +8,7 @@ from pathlib import Path
 
 import click
 
-from .options import force_option, quiet_option, seed_option, verbose_option
+from .options import force_option, pattern_option, quiet_option, seed_option, verbose_option
 
 IMAGE_SUFFIXES = (".png", ".exr", ".tif", ".tiff")
 
@@ -77,12 +77,14 @@ def _mode_help() -> str:
               help="Show the irregularity noise stored in the params (§6.3), if any.")
 @click.option("--sheet", is_flag=True, help="With several PARAMS: also write OUT/sheet.png, all images side by side.")
 @click.option("--json", "as_json", is_flag=True, help="Print what was rendered and the timings as JSON.")
+@pattern_option
 @seed_option
 @force_option
 @verbose_option
 @quiet_option
 def render(inputs, out, mode, spp, size, view, camera, fov_deg, margin, light, ground, units, object_name,
-           pitch_mm, angle_deg, offset, max_depth, fold, noise, sheet, as_json, seed, force, verbose, quiet):
+           pitch_mm, angle_deg, offset, max_depth, fold, noise, sheet, as_json, pattern_file, seed, force, verbose,
+           quiet):
     """Render captured fabrics (PARAMS.json from `weavecap fit`) on a garment MESH (OBJ or PLY).
 
     The fabric is tiled over the mesh's UVs at its physical size (the yarn pitch), as the
@@ -121,6 +123,11 @@ def render(inputs, out, mode, spp, size, view, camera, fov_deg, margin, light, g
     for target in targets + ([out / "sheet.png"] if sheet else []):
         refuse_overwrite(target, force=force)
     fabrics = [wparams.load(p) for p in params_files]  # every input checked before any work
+    if pattern_file is not None:
+        from weavecap.patterns import load_pattern
+
+        pattern = load_pattern(pattern_file)
+        fabrics = [f.replace({"pattern": pattern}) for f in fabrics]
 
     from weavecap.render.mesh import load_mesh
     from weavecap.render.run import RenderOptions, render_fabric

@@ -20,14 +20,21 @@ bin="$work/venv/bin"
 import importlib.util, pathlib, weavecap
 here = pathlib.Path(weavecap.__file__).resolve()
 assert "site-packages" in here.parts, f"weavecap imported from {here}, not the installed wheel"
-for name in ("weavecap.cli.main", "weavecap.fit.joint", "weavecap.estimate.initializer", "weavecap.fixtures"):
+for name in ("weavecap.cli.main", "weavecap.fit.joint", "weavecap.estimate.initializer", "weavecap.fixtures",
+             "weavecap.render.run", "weavecap.cli.render"):
     assert importlib.util.find_spec(name) is not None, f"the wheel lacks {name}"
 from weavecap import bench, fixtures
 assert bench.FIXTURE.is_file(), f"bench fixture missing: {bench.FIXTURE}"
 assert fixtures.path("photos", "twill_3_1.png").is_file()
+assert fixtures.path("meshes", "skirt.obj").is_file(), "the wheel lacks the fixture meshes"
 PY
 test -f "$work/venv/share/man/man1/weavecap-fit.1" || { echo "check_wheel: man pages not installed" >&2; exit 1; }
 photo=$("$bin/python" -c 'from weavecap import fixtures; print(fixtures.path("photos", "twill_3_1.png"))')
 "$bin/weavecap" fit "$photo" -o fit --quality draft -q
 test -s fit/params.json && test -s fit/report.json
 echo "check_wheel: the installed wheel fitted $photo ($(cd "$work" && "$bin/python" -c 'import json; r=json.load(open("fit/report.json")); print(r["weave"], r["fit"]["psnr_db"], "dB")'))"
+# and the captured fabric on a garment, from the installed wheel (the demo's last step, tiny)
+skirt=$("$bin/python" -c 'from weavecap import fixtures; print(fixtures.path("meshes", "skirt.obj"))')
+"$bin/weavecap" render fit/params.json "$skirt" -o skirt.png --size 96x72 --spp 4 --pitch-mm 3 -q
+test -s skirt.png
+echo "check_wheel: the installed wheel rendered fit/params.json on $skirt"

@@ -1,12 +1,20 @@
 """Measure ``weavecap export``'s material against the surface model, and make the README's pictures.
 
 For each fixture fabric: the time of an export of every format (the first one in the process
-is cold: kernels compile), then a flat swatch of 20 × 20 tiles (about a yarn a pixel) rendered
-twice under three lights — the PBR maps on plain Mitsuba's principled BSDF, and weavecap's
-surface BSDF with its path tracer (the reference renderer) — and the CIEDE2000 difference of
-their mean colours. ``--pictures DIR`` also writes ``export_maps.png`` (the five maps of the
-2/1 twill, 2 × 2 tiles each) and ``export_gltf.png`` (the exported .glb, read back and rendered
-at an angle in plain Mitsuba).
+is cold: kernels compile); then the CIEDE2000 difference of mean colours between the PBR maps
+on plain Mitsuba (the exported scene's BSDFs, Mitsuba's ``path`` integrator) and weavecap's
+reference renderer (its surface BSDF and path tracer), twice:
+
+- ``weavecap render --mode reference`` of the flat swatch mesh (fixtures/meshes/swatch.obj,
+  20 cm, seen whole: about four yarns a pixel), with its own lights (studio, sun), against the
+  same render with the fabric replaced by the maps (a mode registered here);
+- the exported Mitsuba swatch of 20 × 20 tiles (about a yarn a pixel) under three lights;
+- the exported swatch seen at 90°, 45° and 25° elevation (sky + sun), with principled
+  ``sheen`` 0 and 1 (does a sheen lobe help?), for two fixtures.
+
+``--pictures DIR`` also writes ``export_maps.png`` (the six maps of the 2/1 twill, 2 × 2 tiles
+each) and ``export_gltf.png`` (the exported .glb, read back and rendered at an angle in plain
+Mitsuba).
 
 Run: ``.venv/bin/python scripts/measure_export.py [--pictures docs/images]``; docs/export.md
 quotes its output.
@@ -76,6 +84,80 @@ def compare(name: str, folder: Path) -> tuple[float, dict[str, float]]:
         ref = mx.render_scene(ref_scene)
         out[light] = float(deltaE_ciede2000(mean_lab(plain), mean_lab(ref)))
     return seconds, out
+
+
+def render_compare(name: str, lights: tuple[str, ...]) -> dict[str, float]:
+    """ΔE between ``weavecap render --mode reference`` of the flat swatch and the same render
+    with the exported maps on plain Mitsuba, per light."""
+    from skimage.color import deltaE_ciede2000
+
+    from weavecap import params
+    from weavecap.export import mitsuba as mx
+    from weavecap.export.material import pbr_maps
+    from weavecap.fixtures import path as fixture_path
+    from weavecap.render import modes
+    from weavecap.render.mesh import load_mesh
+    from weavecap.render.run import RenderOptions, render_fabric
+
+    fabric = params.load(ROOT / "fixtures" / "params" / f"{name}.json")
+    maps = pbr_maps(fabric, pitch_mm=PITCH_MM)
+    tmp = Path(tempfile.mkdtemp())
+    textures = {key: str(tmp / f"{key}.png") for key in mx.TEXTURES}
+    mx.write_textures(maps, tmp, textures)
+    modes.register_mode(mx.maps_mode(maps, textures))
+    mesh = load_mesh(fixture_path("meshes", "swatch.obj"))
+    out = {}
+    for light in lights:
+        images = [render_fabric(fabric, mesh, RenderOptions(mode=m, light=light, size=(128, 128), spp=64,
+                                                            pitch_mm=PITCH_MM, margin=0.0, noise=False)).image
+                  for m in ("reference", "exported-maps")]
+        out[light] = float(deltaE_ciede2000(mean_lab(images[1]), mean_lab(images[0])))
+    return out
+
+
+def view_compare(name: str, elevations=(90, 45, 25), sheens=(0.0, 1.0)) -> dict[tuple[int, float], float]:
+    """ΔE between the exported maps and the reference on a swatch of 60 × 60 tiles seen at
+    each elevation (degrees above the swatch, 8° field of view), per principled ``sheen``."""
+    import math
+
+    from skimage.color import deltaE_ciede2000
+
+    from weavecap import params
+    from weavecap.backend import mitsuba
+    from weavecap.export import ExportOptions, Material, export
+    from weavecap.export import mitsuba as mx
+
+    mi = mitsuba()
+    fabric = params.load(ROOT / "fixtures" / "params" / f"{name}.json")
+    swatch = 60 * fabric.shape[1] * PITCH_MM
+    folder = Path(tempfile.mkdtemp())
+    options = ExportOptions(formats=("mitsuba",), name=name, pitch_mm=PITCH_MM, swatch_mm=swatch, force=True)
+    export(fabric, folder, options)
+    maps = Material(fabric, options).maps
+    files = {k: str(folder / "mitsuba" / v) for k, v in mx.scene_files(name).items()}
+    k = swatch / maps.size_mm[0]
+    surface = {"type": mx.PLUGIN, "params": files["params"], "repeat_u": 1 / k, "repeat_v": 1 / k}
+    mx.register()
+    out = {}
+    for elevation in elevations:
+        e, d = math.radians(elevation), swatch / 1000 * 0.9
+
+        def scene(bsdf=None, sheen=0.0):
+            s = mx.swatch_scene(maps, files, swatch_mm=swatch, size=(96, 96), spp=64, lights=LIGHTS["sky + sun"],
+                                bsdf=bsdf)
+            if bsdf is None:
+                s["swatch"]["bsdf"]["bsdf"]["bsdf_0"]["bsdf"]["bsdf"]["sheen"] = float(sheen)
+            s["sensor"].update(fov=8.0, near_clip=d / 20, far_clip=d * 20, to_world=mi.ScalarTransform4f().look_at(
+                origin=[0, -d * math.cos(e), d * math.sin(e)], target=[0, 0, 0],
+                up=[0, 0, 1] if elevation < 90 else [0, 1, 0]))
+            return s
+
+        reference = scene(surface)
+        reference["integrator"] = {"type": "weavecap_path", "max_depth": 8}
+        ref = mean_lab(mx.render_scene(reference))
+        for sheen in sheens:
+            out[(elevation, sheen)] = float(deltaE_ciede2000(mean_lab(mx.render_scene(scene(sheen=sheen))), ref))
+    return out
 
 
 def glb_render(glb: Path, size: int = 320) -> np.ndarray:
@@ -156,10 +238,10 @@ def pictures(folder: Path, work: Path) -> None:
     export(fabric, work / "twill", ExportOptions(formats=("pbr", "gltf"), name="twill", pitch_mm=PITCH_MM,
                                                  swatch_mm=12.0, force=True))
     tiles = []
-    for key in ("base_color", "normal", "roughness", "opacity", "height"):
+    for key in ("base_color", "transmission", "normal", "roughness", "opacity", "height"):
         image = cv2.imread(str(work / "twill" / "pbr" / f"twill_{key}.png"), cv2.IMREAD_COLOR)
-        tiles.append(cv2.resize(np.tile(image, (2, 2, 1)), (144, 144), interpolation=cv2.INTER_NEAREST))
-        tiles.append(np.full((144, 4, 3), 255, np.uint8))
+        tiles.append(cv2.resize(np.tile(image, (2, 2, 1)), (128, 128), interpolation=cv2.INTER_NEAREST))
+        tiles.append(np.full((128, 4, 3), 255, np.uint8))
     cv2.imwrite(str(folder / "export_maps.png"), np.hstack(tiles[:-1]))
     save_png(folder / "export_gltf.png", glb_render(work / "twill" / "twill.glb"))
     print(f"wrote {folder / 'export_maps.png'} and {folder / 'export_gltf.png'}")
@@ -170,13 +252,22 @@ def main(argv=None) -> int:
     parser.add_argument("--pictures", type=Path, help="folder for export_maps.png and export_gltf.png")
     args = parser.parse_args(argv)
     print(f"load average {os.getloadavg()[0]:.1f}; pitch {PITCH_MM} mm, 16 texels a yarn, 128 px, 64 spp")
-    print("| fixture | export s | " + " | ".join(f"ΔE {light}" for light in LIGHTS) + " |")
-    print("|---|---|" + "---|" * len(LIGHTS))
+    render_lights = ("studio", "sun")
+    print("| fixture | export s | " + " | ".join(f"render {light}" for light in render_lights) + " | "
+          + " | ".join(f"swatch {light}" for light in LIGHTS) + " |")
+    print("|---|---|" + "---|" * (len(render_lights) + len(LIGHTS)))
     with tempfile.TemporaryDirectory() as tmp:
         for name in FIXTURES:
             seconds, de = compare(name, Path(tmp) / name)
-            print(f"| {name} | {seconds:.1f} | " + " | ".join(f"{de[light]:.2f}" for light in LIGHTS) + " |")
+            rendered = render_compare(name, render_lights)
+            print(f"| {name} | {seconds:.1f} | " + " | ".join(f"{rendered[light]:.2f}" for light in render_lights)
+                  + " | " + " | ".join(f"{de[light]:.2f}" for light in LIGHTS) + " |")
             sys.stdout.flush()
+        print("\n| fixture | elevation | ΔE | ΔE with sheen 1 |\n|---|---|---|---|")
+        for name in ("twill_3_1", "plain"):
+            de = view_compare(name)
+            for elevation in (90, 45, 25):
+                print(f"| {name} | {elevation}° | {de[(elevation, 0.0)]:.2f} | {de[(elevation, 1.0)]:.2f} |")
         if args.pictures:
             pictures(args.pictures, Path(tmp))
     return 0

@@ -68,12 +68,13 @@ def test_same_seed_same_fit():
 
 def test_values_stay_in_range_when_the_photo_pulls_beyond_it():
     """A target brighter than any fabric can be drives colours and reflectance to their
-    upper bounds; the barrier and clamping keep every value inside Table 1."""
+    upper bounds; the barrier and clamping keep every value inside Table 1 (the rig's gain,
+    which could explain any brightness, held at 1)."""
     truth = params.load(FIXTURES / "plain.json")
     config = PRESETS["draft"].with_(iterations=15, learning_rate=0.3)
     c = cell_px_for(config, truth.shape)
     target = np.full((2 * c, 2 * c, 3), 5.0, dtype=np.float32)
-    result = fit(target, truth, config=config, seed=0)
+    result = fit(target, truth, config=config, seed=0, fixed=frozenset({"light.gain"}))
     for key in CONTINUOUS_KEYS:
         lo, hi = FIT_RANGES[key]
         v = np.asarray(result.fabric.get(key), dtype=np.float64)
@@ -120,8 +121,9 @@ def test_plies_scan_finds_the_true_count(fixture):
     target = canvas_of(truth, c)
     fs = build_scene(truth.replace({"plies": 2}), View(tiles=(1, 1), size=c * max(truth.shape), spp=8))
     out = scan_plies(fs, lambda: blurred_mse(render_numpy(fs), target))
-    assert fs.to_fabric().plies == 5 and out == {"renders": 6, "changed": 1}
+    assert fs.to_fabric().plies == 5 and {k: out[k] for k in ("renders", "changed")} == {"renders": 6, "changed": 1}
     assert blurred_mse(render_numpy(fs), target) < 1e-6
+    assert out["range"] > 0.05  # strong grooves: the photo tells the counts apart
 
 
 def test_the_fit_scans_plies_only_when_they_are_free():
@@ -178,30 +180,63 @@ def test_the_fit_solves_colours_that_gradient_steps_left_black():
     black = truth.replace({k: (0.0, 0.0, 0.0) for k in ("warp.body_reflection", "weft.body_reflection")})
     solved = fit(target, black, config=config, fixed=frozenset({"pattern"}))
     plain = fit(target, black, config=config.with_(colour_solves=()), fixed=frozenset({"pattern"}))
-    assert solved.moves["colour_solve"] == {"solves": 1, "changed": 1, "renders": 6}
+    assert {k: solved.moves["colour_solve"][k] for k in ("solves", "changed", "renders")} == \
+        {"solves": 1, "changed": 1, "renders": 6}
     assert "colour_solve" not in plain.moves
     assert solved.loss < 0.5 * plain.loss
 
 
-def test_colour_solve_chooses_the_split_that_keeps_colours_inside_their_range():
+def test_colour_solve_recovers_a_known_exposure_and_white_balance():
+    """A photo taken with a gain per channel (exposure × white balance): the back light seen
+    through the gaps does not depend on the fabric's colours, so it fixes the gain, and the
+    colours come out as the fabric's own."""
     from weavecap.fit.joint import BODY_COLOUR_KEYS, solve_colours
     from weavecap.model.render import blurred_mse
 
-    # a bright body: m_r R^B reaches 0.285, out of reach from a start at m_r 0.2 with R^B ≤ 1
     truth = params.load(FIXTURES / "twill_2_1.json").replace({
-        "specular.coefficient": 0.3, "warp.body_reflection": (0.95, 0.6, 0.3), "weft.body_reflection": (0.9, 0.9, 0.9),
-        "warp.body_subsurface": (0.2, 0.2, 0.2), "weft.body_subsurface": (0.1, 0.3, 0.1)})
+        "warp.body_reflection": (0.7, 0.3, 0.2), "warp.body_subsurface": (0.6, 0.3, 0.2),
+        "weft.body_reflection": (0.2, 0.4, 0.6), "weft.body_subsurface": (0.2, 0.4, 0.5)})
+    c, known = 16, (1.6, 1.25, 0.85)
+    fs = build_scene(truth, View(tiles=(1, 1), size=c * max(truth.shape), spp=8))
+    fs.rig = fs.rig.with_gain(known)
+    target = render_numpy(fs)  # HDR: nothing clipped
+    fs.rig = fs.rig.with_gain(1.0)
+    for k in BODY_COLOUR_KEYS:
+        fs.set(k, (0.0, 0.0, 0.0))
+    out = solve_colours(fs, target, lambda: blurred_mse(render_numpy(fs), target), spp=8, blur_px=0.0, gain=True)
+    assert out["changed"] == 1 and out["gain_determined"] == [True, True, True]
+    np.testing.assert_allclose(fs.rig.gain, known, rtol=0.02)
+    for key in BODY_COLOUR_KEYS:
+        np.testing.assert_allclose(fs.to_fabric().get(key), truth.get(key), atol=0.02, err_msg=key)
+
+
+def test_colour_solve_raises_a_gain_the_photo_does_not_fix_just_into_range():
+    """A matte, front-lit fabric 2.5× brighter than the rig's render of it: nothing in the
+    photo but the colours moves with the gain, so the gain is the smallest that keeps every
+    colour within [0, 1] (2.5 × 0.8 = 2.0: the brightest colour at 1), and no colour is left
+    at the clamp below it — the render matches the photo."""
+    from weavecap.fit.joint import BODY_COLOUR_KEYS, solve_colours
+    from weavecap.model.render import blurred_mse
+
+    matte = {"specular.reflection": (0.0, 0.0, 0.0), "specular.transmission": (0.0, 0.0, 0.0),
+             "specular.transmission_exit": (0.0, 0.0, 0.0)}
+    truth = params.load(FIXTURES / "twill_2_1.json").replace({
+        **matte, "warp.body_reflection": (0.8, 0.5, 0.2), "warp.body_subsurface": (0.4, 0.3, 0.2),
+        "weft.body_reflection": (0.3, 0.6, 0.3), "weft.body_subsurface": (0.2, 0.2, 0.2)})
+    from dataclasses import replace
+
+    from weavecap.model.scene import light_rig
+
     c = 16
-    target = canvas_of(truth, c)
-    start = truth.replace({**{k: (0.0, 0.0, 0.0) for k in BODY_COLOUR_KEYS}, "specular.coefficient": 0.2})
-    fs = build_scene(start, View(tiles=(1, 1), size=c * max(truth.shape), spp=8))
-    out = solve_colours(fs, target, lambda: blurred_mse(render_numpy(fs), target), spp=8, blur_px=0.0,
-                        split="specular.coefficient")
-    got = fs.to_fabric()
-    assert out["changed"] == 1 and blurred_mse(render_numpy(fs), target) < 1e-5
-    m_r = got.get("specular.coefficient")
-    for key in BODY_COLOUR_KEYS:  # the products the render sees are the truth's ...
-        w, w_true = (m_r, 0.3) if key.endswith("reflection") else (1 - m_r, 0.7)
-        np.testing.assert_allclose(np.multiply(got.get(key), w), np.multiply(truth.get(key), w_true), atol=0.01)
-        # ... and no colour is left at 1, where the clamp would stop the next gradient steps
-        assert max(got.get(key)) < 0.99, key
+    dark_room = replace(light_rig("front"), backdrop=0.0)  # nothing seen through the gaps
+    fs = build_scene(truth, View(tiles=(1, 1), size=c * max(truth.shape), spp=8), light=dark_room)
+    fs.rig = fs.rig.with_gain(2.5)
+    target = render_numpy(fs)
+    fs.rig = fs.rig.with_gain(1.0)
+    for k in BODY_COLOUR_KEYS:
+        fs.set(k, (0.5, 0.5, 0.5))
+    out = solve_colours(fs, target, lambda: blurred_mse(render_numpy(fs), target), spp=8, blur_px=0.0, gain=True)
+    assert out["changed"] == 1 and out["gain_determined"] == [False, False, False]
+    np.testing.assert_allclose(fs.rig.gain, 2.0, rtol=0.02)
+    assert blurred_mse(render_numpy(fs), target) < 1e-5
+    np.testing.assert_allclose(fs.to_fabric().warp.body_reflection, (1.0, 0.625, 0.25), atol=0.02)

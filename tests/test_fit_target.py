@@ -198,6 +198,7 @@ def test_the_end_stage_fits_the_best_named_weave_even_when_it_looked_worse_unfit
 
     monkeypatch.setattr(rounds, "best_named_weave", fake_best_named_weave)
     monkeypatch.setattr(rounds, "_fit_round", fake_round)
+    monkeypatch.setattr(rounds, "photo_votes", lambda prepared, cells, fabric, rig, c: np.zeros(fabric.shape))
     custom = np.array([[0, 1, 1, 1], [0, 0, 0, 1], [1, 1, 0, 0], [0, 1, 1, 0]], dtype=np.uint8)
     assert not rounds.is_named_weave(custom)
     start = params.load(FIXTURES / "plain.json").replace({"pattern": custom})
@@ -207,3 +208,66 @@ def test_the_end_stage_fits_the_best_named_weave_even_when_it_looked_worse_unfit
                                   explore_patterns=True)
     assert asked[-1] == np.inf
     assert np.array_equal(out.result.fabric.pattern, named) and out.notes["named_weave"]["taken"]
+
+
+def _weave_canvas(pattern, c=16, gap=0.02, seed=0):
+    """A repeat drawn by hand: each cell its top yarn's colour with stripes along the yarn and
+    gap lines (``gap`` bright or dark) at the cell borders only where no yarn covers them."""
+    n_e, n_a = pattern.shape
+    rng = np.random.default_rng(seed)
+    img = np.zeros((n_e * c, n_a * c, 3))
+    yy, xx = np.mgrid[0:c, 0:c]
+    for i in range(n_e):
+        for j in range(n_a):
+            weft = pattern[i, j] == 1
+            across = yy if weft else xx
+            shade = 0.35 + 0.25 * np.sin(np.pi * (across + 0.5) / c)  # round yarn, darker edges
+            cell = (np.array([0.5, 0.3, 0.2]) if weft else np.array([0.2, 0.35, 0.5]))[None, None] * shade[..., None] / 0.6
+            edge = (np.minimum(yy, c - 1 - yy) < 1) if weft else (np.minimum(xx, c - 1 - xx) < 1)
+            cell = np.where(edge[..., None], gap, cell)  # the gaps along the top yarn's sides
+            img[i * c:(i + 1) * c, j * c:(j + 1) * c] = cell
+    return img + rng.normal(0, 0.003, img.shape)
+
+
+@pytest.mark.parametrize("gap", [0.01, 0.9])
+def test_gap_phase_finds_dark_and_bright_gaps(gap):
+    from weavecap.estimate.cells import gap_phase
+
+    pattern = np.array([[1, 1, 0], [0, 1, 1], [1, 0, 1]])
+    canvas = _weave_canvas(pattern, gap=gap)
+    for dy, dx in ((0, 0), (5, 11), (9, 3)):
+        gy, gx = gap_phase(np.roll(canvas, (dy, dx), axis=(0, 1)), pattern.shape)
+        # the gap lines sit between pixels c-1 and 0 of a cell: at -0.5 (mod 16), moved by the roll
+        assert abs(((gy - dy + 0.5) + 8) % 16 - 8) < 1.0 and abs(((gx - dx + 0.5) + 8) % 16 - 8) < 1.0, (gy, gx)
+
+
+def test_votes_read_which_yarn_runs_on_top():
+    from weavecap.estimate.orientation import agreement, aligned_votes, cell_votes, vote_pattern
+
+    rng = np.random.default_rng(2)
+    for shape in ((3, 3), (4, 6)):
+        pattern = (rng.random(shape) < 0.5).astype(np.uint8)
+        canvas = _weave_canvas(pattern)
+        votes = cell_votes(canvas, shape)
+        # a neighbour's own gap line lies on the shared border too: votes are rarely unanimous
+        assert np.array_equal(vote_pattern(votes), pattern) and np.abs(votes).min() > 0.05
+        assert agreement(pattern, votes) > 0.8 and agreement(1 - pattern, votes) < 0.2
+        # off the gap lattice by 5 and 7 px: the gaps are found first (a weak cell may still flip)
+        rolled = aligned_votes(np.roll(canvas, (16 * 2 + 5, 7), axis=(0, 1)), shape)
+        assert np.mean(vote_pattern(rolled) == np.roll(pattern, (2, 0), axis=(0, 1))) >= 0.9
+    assert agreement(pattern, np.zeros(shape)) == 0.5
+
+
+def test_the_blur_is_capped_where_the_render_gets_as_smooth_as_the_photo(twill):
+    from weavecap.fit.target import photo_blur, sharpness_blur
+    from weavecap.model.render import blur
+
+    fabric, model = twill
+    sharp = np.asarray(model, np.float64)
+    photo = blur(sharp, 1.5)
+    assert abs(sharpness_blur(sharp, photo, C) - 1.5) < 0.2
+    # a photo the model cannot match (its colours off): the MSE alone would blur far more
+    off = photo * np.array([1.6, 0.7, 1.2]) + 0.05
+    sigma, _ = photo_blur(sharp, off, C)
+    assert sigma <= sharpness_blur(sharp, off, C) + 1e-9
+    assert sharpness_blur(blur(sharp, 3.0), sharp, C) == 0.0  # a render blurrier than the photo: none

@@ -26,10 +26,14 @@ def test_fit_recovers_variance_and_peak_frequency_of_a_known_spectrum():
     residual = synthesize(KNOWN, (256, 256), pitch_px=16, seed=2)
     model = fit_noise(residual, pitch_px=16, components=2, seed=0)
     jsonschema.validate({"gaussians": model["gaussians"]}, _schema()["properties"]["noise"])
-    weights = sum(g["weight"] for g in model["gaussians"])
-    assert weights == pytest.approx(residual.var(), rel=1e-6)
-    for g in model["gaussians"]:
-        assert abs(abs(g["mean"][1]) - 1.5) < 0.15 and abs(g["mean"][0]) < 0.15
+    # each known Gaussian found, carrying its own share of the variance (the weights sum to the
+    # variance by construction; how they split does not): measured 3.89e-4 / 4.11e-4 for 4e-4
+    # each, means within 0.013 cycles per pitch, covariance diagonals 0.0191–0.0204 for 0.02
+    found = sorted(model["gaussians"], key=lambda g: g["mean"][1])
+    for g, truth in zip(found, sorted(KNOWN["gaussians"], key=lambda g: g["mean"][1])):
+        assert g["weight"] == pytest.approx(truth["weight"], rel=0.05)
+        np.testing.assert_allclose(g["mean"], truth["mean"], atol=0.03)
+        np.testing.assert_allclose(np.diag(g["cov"]), np.diag(truth["cov"]), rtol=0.1)
     # resynthesis at another resolution keeps the variance
     again = synthesize(model, (128, 96), pitch_px=8, seed=3)
     assert again.var() == pytest.approx(residual.var(), rel=0.15)

@@ -1,5 +1,5 @@
-"""The speed–accuracy bench of ``weavecap fit`` (issue 5): synthetic photos with known truth,
-fitted at each quality preset.
+"""The speed–accuracy bench of ``weavecap fit`` (issues 5 and 11): photos with known truth,
+fitted at each quality preset, from two sources.
 
 The bench set is fixed by a seed: fabrics over Table 1 (:mod:`weavecap.estimate.sampling`)
 with plain, twill, satin 5 and 8, basket and random patterns up to 8×8, rendered by the
@@ -10,6 +10,14 @@ truth: the pattern up to a cyclic shift, the re-render's PSNR against the regula
 the error of every continuous parameter relative to its Table 1 range, plies and fibres — and
 which continuous parameters the photo determines (standard error ≤ 5% of the range at the fit,
 :mod:`weavecap.fit.uncertainty`), the ones issue 5's accuracy goal is about.
+
+That set cannot show model mismatch: its photos come from the model that fits them. The
+*independent* set (:func:`make_independent_photos`, issue 11) comes from
+:mod:`weavecap.heightfield_photos`, which shares no code with the forward model: height-field
+yarns with their own shading, exposure and white balance off. Its truth is the pattern (face
+and direction included); every photo of both sets is also scored by the fidelity figures of
+:mod:`weavecap.fit.fidelity` (sharpness, each family's ΔE2000, structure correlation) between
+the photo's repeat and the fit's render.
 """
 
 from __future__ import annotations
@@ -28,14 +36,24 @@ FAMILIES = ("plain", "twill", "satin5", "satin8", "basket", "random", "twill", "
 QUICK_FAMILIES = ("plain", "twill", "random")
 
 
+SETS = ("own", "independent")
+
+
 @dataclass(frozen=True)
 class BenchPhoto:
-    """A synthetic photo and its truth."""
+    """A bench photo and its truth: the whole fabric (own renders) or only its pattern
+    (independent photos, ``truth`` None)."""
 
     path: Path
-    truth: Fabric
+    truth: Fabric | None
     family: str
     rotate_deg: float
+    pattern: np.ndarray | None = None
+    set: str = "own"
+
+    @property
+    def true_pattern(self) -> np.ndarray:
+        return self.truth.pattern if self.truth is not None else self.pattern
 
 
 def make_photos(folder: Path, *, quick: bool, seed: int = 2026) -> list[BenchPhoto]:
@@ -70,6 +88,30 @@ def make_photos(folder: Path, *, quick: bool, seed: int = 2026) -> list[BenchPho
     return photos
 
 
+def make_independent_photos(folder: Path, *, quick: bool, seed: int = 11) -> list[BenchPhoto]:
+    """Render the independent set (:func:`weavecap.heightfield_photos.bench_specs`) into
+    ``folder`` (JPEG at each photo's own quality)."""
+    from .estimate.weave_name import weave_name
+    from .heightfield_photos import bench_specs, write_photo
+
+    photos = []
+    for k, spec in enumerate(bench_specs(seed=seed, quick=quick)):
+        path = write_photo(folder / f"{spec.name}.jpg", spec, seed=seed + k)
+        photos.append(BenchPhoto(path=path, truth=None, family=weave_name(spec.pattern),
+                                 rotate_deg=spec.rotate_deg, pattern=np.asarray(spec.pattern), set="independent"))
+    return photos
+
+
+def score_pattern(fit: Fabric | None, truth: np.ndarray) -> dict:
+    """The independent set's scoring: the pattern up to a cyclic shift (face and direction
+    included: a mirrored twill or the other face of a satin is a different pattern)."""
+    from .estimate.weave_name import equal_up_to_shift
+
+    if fit is None:
+        return {"fitted": False, "pattern_exact": False}
+    return {"fitted": True, "pattern_exact": equal_up_to_shift(fit.pattern, truth)}
+
+
 def compare(fit: Fabric | None, truth: Fabric, determined: dict | None = None) -> dict:
     """Errors of a fitted fabric against the truth (None: the photo was not fitted).
     ``determined``: the report's ``fit.parameters`` (which values the photo determines);
@@ -95,27 +137,54 @@ def compare(fit: Fabric | None, truth: Fabric, determined: dict | None = None) -
     return out
 
 
-def run(presets: tuple[str, ...], *, quick: bool, folder: Path | None = None, progress=print) -> list[dict]:
-    """Fit every bench photo at every preset; one result dict per (photo, preset)."""
-    from .pipeline import CaptureOptions, capture
+def run(presets: tuple[str, ...], *, quick: bool, folder: Path | None = None, sets: tuple[str, ...] = SETS,
+        progress=print) -> list[dict]:
+    """Fit every photo of each of ``sets`` at every preset; one result dict per (photo,
+    preset). ``folder`` keeps the photos (``own/``, ``independent/``) and each fit's outputs
+    (``fits/<preset>/<photo>/``, compare.png included)."""
+    from .estimate.weave_name import weave_name
+    from .pipeline import CaptureOptions, capture, write_capture
 
     with tempfile.TemporaryDirectory() as tmp:
         where = folder or Path(tmp)
-        where.mkdir(parents=True, exist_ok=True)
-        photos = make_photos(where, quick=quick)
+        photos = []
+        for name in sets:
+            (where / name).mkdir(parents=True, exist_ok=True)
+            make = make_photos if name == "own" else make_independent_photos
+            photos += make(where / name, quick=quick)
         results = []
         for preset in presets:
             for photo in photos:
                 cap = capture(photo.path, CaptureOptions(quality=preset, seed=0))
-                row = {"preset": preset, "photo": photo.path.name, "family": photo.family,
+                if folder is not None:
+                    write_capture(cap, where / "fits" / preset / photo.set / photo.path.stem)
+                fit = cap.report.get("fit", {})
+                scores = (compare(cap.fabric, photo.truth, fit.get("parameters")) if photo.truth is not None
+                          else score_pattern(cap.fabric, photo.pattern))
+                row = {"set": photo.set, "preset": preset, "photo": photo.path.name, "family": photo.family,
                        "status": cap.status, "seconds": cap.report["timings_s"]["total"],
-                       "psnr_db": cap.report["fit"]["psnr_db"] if cap.status == "ok" else None,
-                       "timings_s": cap.report["timings_s"],
-                       **compare(cap.fabric, photo.truth, cap.report.get("fit", {}).get("parameters"))}
+                       "psnr_db": fit["psnr_db"] if cap.status == "ok" else None,
+                       "fidelity": fit.get("fidelity") if cap.status == "ok" else None,
+                       "fitted_weave": weave_name(cap.fabric.pattern) if cap.fabric is not None else None,
+                       "timings_s": cap.report["timings_s"], **scores}
                 results.append(row)
-                progress(f"{preset:6s} {photo.path.name:16s} {row['status']:8s} {row['seconds']:6.1f} s  "
-                         f"pattern {'exact' if row['pattern_exact'] else 'wrong'}  PSNR {row['psnr_db']}")
+                fid = row["fidelity"] or {}
+                progress(f"{preset:6s} {photo.path.name:22s} {row['status']:8s} {row['seconds']:6.1f} s  "
+                         f"pattern {'exact' if row['pattern_exact'] else 'wrong'} ({row['fitted_weave']})  "
+                         f"PSNR {row['psnr_db']}  sharpness {fid.get('sharpness')}  dE {fid.get('delta_e')}")
     return results
+
+
+def _fidelity_summary(fitted: list[dict]) -> dict:
+    """Median and worst of the fidelity figures over fitted photos: sharpness (worst = lowest),
+    ΔE over both families of every photo (worst = highest), structure (median)."""
+    sharp = [r["fidelity"]["sharpness"] for r in fitted if r.get("fidelity") and r["fidelity"]["sharpness"] is not None]
+    de = [v for r in fitted if r.get("fidelity") for v in r["fidelity"]["delta_e"].values() if v is not None]
+    struct = [r["fidelity"]["structure"] for r in fitted if r.get("fidelity") and r["fidelity"]["structure"] is not None]
+    nan = float("nan")
+    return {"sharpness_median": statistics.median(sharp) if sharp else nan, "sharpness_worst": min(sharp, default=nan),
+            "delta_e_median": statistics.median(de) if de else nan, "delta_e_worst": max(de, default=nan),
+            "structure_median": statistics.median(struct) if struct else nan}
 
 
 def summary(results: list[dict]) -> list[dict]:
@@ -123,10 +192,17 @@ def summary(results: list[dict]) -> list[dict]:
     the median relative error of each continuous parameter and the share of photos that
     determine it, and the median relative error over every (photo, parameter it determines)."""
     rows = []
-    for preset in dict.fromkeys(r["preset"] for r in results):
-        rs = [r for r in results if r["preset"] == preset]
+    for set_, preset in dict.fromkeys((r.get("set", "own"), r["preset"]) for r in results):
+        rs = [r for r in results if r.get("set", "own") == set_ and r["preset"] == preset]
         fitted = [r for r in rs if r["fitted"]]
-        row = {"preset": preset, "photos": len(rs), "fitted": len(fitted),
+        if set_ != "own":
+            rows.append({"set": set_, "preset": preset, "photos": len(rs), "fitted": len(fitted),
+                         "median_s": statistics.median(r["seconds"] for r in rs), "max_s": max(r["seconds"] for r in rs),
+                         "pattern_exact": sum(r["pattern_exact"] for r in rs) / len(rs),
+                         "median_psnr_db": statistics.median(r["psnr_db"] for r in fitted) if fitted else float("nan"),
+                         **_fidelity_summary(fitted)})
+            continue
+        row = {"set": set_, "preset": preset, "photos": len(rs), "fitted": len(fitted),
                "median_s": statistics.median(r["seconds"] for r in rs), "max_s": max(r["seconds"] for r in rs),
                "pattern_exact": sum(r["pattern_exact"] for r in rs) / len(rs),
                "median_psnr_db": statistics.median(r["psnr_db"] for r in fitted) if fitted else float("nan"),
@@ -140,19 +216,41 @@ def summary(results: list[dict]) -> list[dict]:
         row["median_error_determined"] = statistics.median(pooled) if pooled else float("nan")
         row["determined_per_photo"] = statistics.median(len(r["determined"]) for r in fitted) if fitted else 0
         row["within_2se"] = statistics.median(r["within_2se"] for r in fitted) if fitted else float("nan")
+        row.update(_fidelity_summary(fitted))
         rows.append(row)
     return rows
 
 
+def independent_table(rows: list[dict]) -> str:
+    """The independent set's table (markdown): pattern, fidelity and time per preset."""
+    out = ["| preset | photos fitted | median s | max s | pattern exact | median PSNR | sharpness median | "
+           "sharpness worst | ΔE2000 median | ΔE2000 worst | structure median |", "|" + "---|" * 11]
+    for r in rows:
+        if r.get("set") != "independent":
+            continue
+        out.append(f"| {r['preset']} | {r['fitted']}/{r['photos']} | {r['median_s']:.1f} | {r['max_s']:.1f} | "
+                   f"{r['pattern_exact']:.0%} | {r['median_psnr_db']:.1f} dB | {r['sharpness_median']:.2f} | "
+                   f"{r['sharpness_worst']:.2f} | {r['delta_e_median']:.1f} | {r['delta_e_worst']:.1f} | "
+                   f"{r['structure_median']:.2f} |")
+    return "\n".join(out)
+
+
 def table(rows: list[dict]) -> str:
-    """docs/capture.md's fit bench tables (markdown)."""
-    out = ["| preset | photos fitted | median s | max s | pattern exact | median PSNR | plies ±1 | fibres ±1 |"
+    """docs/capture.md's fit bench tables for the own-render set (markdown)."""
+    rows = [r for r in rows if r.get("set", "own") == "own"]
+    if not rows:
+        return ""
+    out = ["| preset | photos fitted | median s | max s | pattern exact | median PSNR | sharpness median / worst |"
+           " ΔE2000 median / worst | plies ±1 | fibres ±1 |"
            " median rel. error (determined) | determined per photo | errors within 2 SE |"
-           " median rel. error (all continuous) |", "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+           " median rel. error (all continuous) |", "|" + "---|" * 14]
     for r in rows:
         med = statistics.median(r["relative_error"].values())
         out.append(f"| {r['preset']} | {r['fitted']}/{r['photos']} | {r['median_s']:.1f} | {r['max_s']:.1f} | "
-                   f"{r['pattern_exact']:.0%} | {r['median_psnr_db']:.1f} dB | {r['plies_ok']:.0%} | "
+                   f"{r['pattern_exact']:.0%} | {r['median_psnr_db']:.1f} dB | "
+                   f"{r.get('sharpness_median', float('nan')):.2f} / {r.get('sharpness_worst', float('nan')):.2f} | "
+                   f"{r.get('delta_e_median', float('nan')):.1f} / {r.get('delta_e_worst', float('nan')):.1f} | "
+                   f"{r['plies_ok']:.0%} | "
                    f"{r['fibers_ok']:.0%} | {r['median_error_determined']:.1%} | {r['determined_per_photo']:g} | "
                    f"{r['within_2se']:.0%} | {med:.1%} |")
     out += ["", "| parameter (median rel. error, share of photos that determine it) | "
@@ -164,11 +262,15 @@ def table(rows: list[dict]) -> str:
 
 
 def plot(rows: list[dict], path: Path) -> None:
-    """Speed against error (median seconds vs median relative error and PSNR) as a PNG."""
+    """Speed against error on the own-render set (median seconds vs median relative error and
+    PSNR) as a PNG; nothing without that set."""
     import cv2
 
     from .photo import save_png, srgb_to_linear
 
+    rows = [r for r in rows if "relative_error" in r]  # the own-render set: errors against the truth
+    if not rows:
+        return
     h, w, m = 320, 480, 50
     img = np.full((h, w, 3), 255, np.uint8)
     cv2.rectangle(img, (m, 20), (w - 20, h - m), (0, 0, 0), 1)

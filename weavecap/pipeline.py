@@ -22,7 +22,7 @@ from . import params as wparams
 from .errors import PhotoError
 from .fit.config import PRESETS, FitConfig, cell_px_for
 from .fit.fidelity import captioned, fidelity
-from .fit.target import align_cells, repeat_cells
+from .fit.target import align_cells, mean_repeat, repeat_cells, shifted
 from .io import atomic_write_text
 
 REPORT_FORMAT = "weavecap.report/1"
@@ -36,7 +36,8 @@ class CaptureOptions:
     Attributes
     ----------
     quality : preset name of :data:`weavecap.fit.config.PRESETS`
-    light : the light rig the photo was taken under (§6.4)
+    light : the light rig the photo was taken under (§6.4), or ``auto``: decided from the
+        photo's gaps (:func:`weavecap.fit.modelled.choose_rig`)
     seed : seeds every random choice; the same seed gives the same result
     budget_s : wall-time limit of the joint fit, seconds (None: the preset's iterations)
     start_from : a fabric to start the fit from instead of the pre-estimate (warm start)
@@ -45,7 +46,7 @@ class CaptureOptions:
     """
 
     quality: str = "normal"
-    light: str = "both"
+    light: str = "auto"
     seed: int = 0
     budget_s: float | None = None
     start_from: wparams.Fabric | None = None
@@ -135,10 +136,11 @@ def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), 
     from .estimate.preestimate import pre_estimate
     from .estimate.weave_name import weave_name
     from .fit.confidence import pattern_confidence
+    from .fit import modelled
     from .fit.rounds import fit_registered
     from .fit.uncertainty import DETERMINED_SE, standard_errors
     from .model.render import as_photographed, render_numpy, white_level
-    from .model.scene import View, build_scene
+    from .model.scene import View, build_scene, light_rig
     from .noise import fit_noise
     from .photo import file_sha256, load_photo
     from .prepare import Rejected, prepare_photo
@@ -178,6 +180,13 @@ def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), 
         raise wparams.ParamsError(f"the given pattern is {options.pattern.shape[0]}x{options.pattern.shape[1]} but "
                                   f"the photo's repeat is {shape[0]} wefts x {shape[1]} warps", field="pattern")
 
+    config = options.config
+    c = cell_px_for(config, shape)
+    light, light_reason = options.light, "given"
+    if light == "auto":
+        light, light_reason = modelled.choose_rig(
+            mean_repeat(prepared.rectification.image, shifted(cells, prepared.regularized.box), c), shape)
+
     say(f"pre-estimating a {shape[0]}x{shape[1]} repeat (pattern, colours, parameters)")
     t = time.perf_counter()
     if options.start_from is not None:
@@ -187,27 +196,33 @@ def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), 
                                       f"repeat is {shape[0]}x{shape[1]}", field="pattern")
         report["pre_estimation"] = {"parameters_from": "start_from"}
     else:
-        pre = pre_estimate(prepared.regularized.image, cells, light=options.light, use_network=options.use_network)
+        pre = pre_estimate(prepared.regularized.image, cells, light=light, use_network=options.use_network)
         start = pre.fabric
         report["pre_estimation"] = pre.to_json()
     if options.pattern is not None:
         start = start.replace({"pattern": options.pattern})
     timings["pre_estimate"] = time.perf_counter() - t
 
-    config = options.config
-    c = cell_px_for(config, shape)
-    fixed = frozenset({"pattern"}) if options.pattern is not None else frozenset()
+    rig = light_rig(light)
+    t = time.perf_counter()
+    # what this photo can show: values no render of its repeat sees are held, not fitted
+    plan = modelled.plan(start, cell_px=c, fixed=frozenset({"pattern"}) if options.pattern is not None else frozenset())
+    unseen = {k: se for k, se in standard_errors(plan.start, render_numpy(build_scene(
+        plan.start, View(tiles=(1, 1), size=c * max(shape), spp=config.spp), light=rig)), blur_px=0.0, light=rig,
+        spp=config.spp, fixed=plan.fixed).items() if not np.isfinite(se)}
+    plan = modelled.plan(plan.start, cell_px=c, fixed=plan.fixed, unseen=unseen, reasons=plan.reasons)
+    timings["plan"] = time.perf_counter() - t
     say(f"fitting ({options.quality}: up to {config.iterations} steps"
         + (f", {options.budget_s:g} s budget" if options.budget_s else "") + ")")
     t = time.perf_counter()
-    fitted = fit_registered(prepared, cells, start, options, c=c, fixed=fixed,
+    fitted = fit_registered(prepared, cells, plan.start, options, c=c, fixed=plan.fixed, rig=rig,
                             explore_patterns=options.pattern is None and options.start_from is None)
     result, blur_px, target, photo_cells = fitted.result, fitted.blur_px, fitted.target, fitted.cells
     report["pre_estimation"].update(fitted.notes)
     timings["fit"] = time.perf_counter() - t
 
     t = time.perf_counter()
-    fs = build_scene(result.fabric, View(tiles=(1, 1), size=max(target.shape[:2]), spp=config.spp), light=options.light)
+    fs = build_scene(result.fabric, View(tiles=(1, 1), size=max(target.shape[:2]), spp=config.spp), light=fitted.rig)
     rendered = as_photographed(render_numpy(fs), blur_px, white_level(target))
     confidence = pattern_confidence(fs, rendered, target, config.spp, blur_px)
     photo_canvas = cell_canvas(prepared.rectification.image, photo_cells, c)
@@ -218,7 +233,8 @@ def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), 
 
     say("measuring how well the photo determines each parameter")
     t = time.perf_counter()
-    errors = standard_errors(result.fabric, target, blur_px=blur_px, light=options.light, spp=config.spp)
+    errors = standard_errors(result.fabric, target, blur_px=blur_px, light=fitted.rig, spp=config.spp,
+                             fixed=plan.fixed)
     timings["uncertainty"] = time.perf_counter() - t
     timings["total"] = time.perf_counter() - t0
 
@@ -232,16 +248,10 @@ def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), 
         "parameters": {key: {"standard_error": round(se, 4) if np.isfinite(se) else None,
                              "determined": bool(se <= DETERMINED_SE)} for key, se in errors.items()},
     }
-    report["modelled"] = {
-        "light_rig": options.light,
-        "transmission": "exit-point rays for the back light" if options.light in ("both", "back")
-        else "none: nothing lights the back",
-        "samples_per_pixel": f"{config.spp}: directional lights are exact at pixel centres",
-        "radii": "greedy pattern search (finite-difference gradients: same PSNR, 19x slower; Metropolis moves: 5 dB worse)",
-        "photo_blur_px": round(blur_px, 3),
-        "noise": f"{len(noise['gaussians'])} Gaussians over the residual spectrum",
-        "yarn_pitch_px": [round(float(v), 3) for v in pitch],
-    }
+    report["fit"]["light"] = modelled.light_json(fitted.rig, result.moves)
+    report["modelled"] = modelled.describe(plan, result, errors, light=light, light_reason=light_reason,
+                                           spp=config.spp,
+                                           blur_px=blur_px, noise=noise, pitch_px=pitch, plies_flat=config.plies_flat)
     report["timings_s"] = {k: round(v, 3) for k, v in timings.items()}
     error = np.abs(rendered - target) * 4.0
     images = {"compare.png": np.concatenate([target, rendered, error], axis=1),

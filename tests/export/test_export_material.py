@@ -62,14 +62,17 @@ def _seams(image: np.ndarray, t: int) -> tuple[float, float, float, float]:
     return seam_x, inner_x, seam_y, inner_y
 
 
-@pytest.mark.parametrize("key", ["base_color", "normal", "roughness", "opacity", "height"])
+@pytest.mark.parametrize("key", ["base_color", "transmission", "normal", "roughness", "opacity", "height"])
 def test_every_map_tiles_without_seams(exported, key):
     """Opposite edges continue each other: the jump across a seam is no larger than across
-    the yarn boundaries inside the tile (the seams are yarn boundaries too)."""
+    the yarn boundaries inside the tile (the seams are yarn boundaries too). The base colour and
+    transmission are Monte-Carlo fits: over seeds 0-3 their seam jump came out up to 1.17x the
+    largest inner one (a seam off by a texel, or an unwrapped filter, gives 2x and more)."""
     out, _ = exported
     image = read_png(out / "pbr" / f"twill_2_1_{key}.png")
     seam_x, inner_x, seam_y, inner_y = _seams(image, T)
-    assert seam_x <= 1.1 * inner_x + 1e-3 and seam_y <= 1.1 * inner_y + 1e-3, (seam_x, inner_x, seam_y, inner_y)
+    margin = 1.3 if key in ("base_color", "transmission") else 1.1
+    assert seam_x <= margin * inner_x + 1e-3 and seam_y <= margin * inner_y + 1e-3, (seam_x, inner_x, seam_y, inner_y)
 
 
 def test_the_tile_is_one_period_of_the_fabric():
@@ -226,3 +229,44 @@ def test_the_same_seed_gives_the_same_files(tmp_path):
     assert files and all((tmp_path / "a" / f).read_bytes() == (tmp_path / "b" / f).read_bytes() for f in files)
     base = "pbr/twill_2_1_base_color.png"
     assert (tmp_path / "a" / base).read_bytes() != (tmp_path / "c" / base).read_bytes()
+
+
+@pytest.fixture
+def maps_mode():
+    """Registers (and afterwards removes) a render mode with the exported maps of a fabric."""
+    from weavecap.render import modes
+
+    registered = []
+
+    def register(fabric, folder: Path):
+        maps = pbr_maps(fabric, pitch_mm=PITCH_MM)
+        textures = {key: str(folder / f"{key}.png") for key in mitsuba.TEXTURES}
+        mitsuba.write_textures(maps, folder, textures)
+        mode = mitsuba.maps_mode(maps, textures)
+        modes.register_mode(mode)
+        registered.append(mode.name)
+        return mode.name
+
+    yield register
+    for name in registered:
+        modes.MODES.pop(name, None)
+
+
+def test_the_maps_in_plain_mitsuba_look_like_weavecap_render_reference(tmp_path, maps_mode):
+    """The issue's test: ``weavecap render --mode reference`` of the flat swatch mesh (20 cm,
+    about four yarns a pixel) under its default studio light, against the same scene with the
+    exported maps on plain Mitsuba's BSDFs and ``path``: mean colour CIEDE2000 ≤ 2.5 (the issue
+    asks ≤ 3; measured 1.6 on this fabric, docs/export.md)."""
+    from skimage.color import deltaE_ciede2000
+
+    from weavecap.fixtures import path as fixture_path
+    from weavecap.render.mesh import load_mesh
+    from weavecap.render.run import RenderOptions, render_fabric
+
+    fabric = params.load(FIXTURE / "twill_3_1.json")
+    exported = maps_mode(fabric, tmp_path)
+    mesh = load_mesh(fixture_path("meshes", "swatch.obj"))
+    images = [render_fabric(fabric, mesh, RenderOptions(mode=m, light="studio", size=(96, 96), spp=32, margin=0.0,
+                                                        pitch_mm=PITCH_MM, noise=False)).image
+              for m in ("reference", exported)]
+    assert deltaE_ciede2000(_mean_lab(images[1]), _mean_lab(images[0])) <= 2.5

@@ -95,3 +95,21 @@ def test_fit_keeps_a_known_draft_fixed(tmp_path):
     report = json.loads((out / "report.json").read_text())
     assert report["fit"]["pattern_fixed"] is True
     np.testing.assert_array_equal(params.load(out / "params.json").pattern, TWILL)
+
+
+def test_render_shows_the_draft_instead_of_the_params_pattern(tmp_path):
+    """render A.json --pattern plain.wif is, bit for bit, render of A with plain weave."""
+    from weavecap.fixtures import path as fixture_path
+
+    draft = tmp_path / "plain.wif"
+    wif.save_wif(params.load(FIXTURE / "plain.json"), draft)
+    plain_twill = tmp_path / "twill_as_plain.json"
+    params.save(params.load(FIXTURE / "twill_2_1.json").replace({"pattern": [[1, 0], [0, 1]]}), plain_twill)
+    mesh = fixture_path("meshes", "swatch.obj")
+    small = ("--size", "24x24", "--spp", "2", "--pitch-mm", "20", "-q")
+    a = run("render", FIXTURE / "twill_2_1.json", mesh, "--pattern", draft, "-o", tmp_path / "a.exr", *small)
+    b = run("render", plain_twill, mesh, "-o", tmp_path / "b.exr", *small)
+    assert a.exit_code == b.exit_code == 0, a.output + b.output
+    from weavecap.photo import load_photo
+
+    np.testing.assert_array_equal(load_photo(tmp_path / "a.exr").rgb, load_photo(tmp_path / "b.exr").rgb)

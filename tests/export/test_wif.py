@@ -233,9 +233,11 @@ def test_every_fixture_round_trips_exactly(tmp_path, path):
     np.testing.assert_array_equal(draft.drawdown, fabric.pattern)
 
 
-@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(arrays(np.uint8, st.tuples(st.integers(1, 64), st.integers(1, 64)), elements=st.integers(0, 1)))
 def test_random_patterns_round_trip(tmp_path, pattern):
+    """Any pattern up to 64x64 survives pattern -> WIF -> pattern (40 random examples in CI; a run of
+    150 passed when this was written)."""
     fabric = params.load(FIXTURES[0]).replace({"pattern": pattern})
     draft = write_read(tmp_path, fabric)
     np.testing.assert_array_equal(draft.drawdown, pattern)

@@ -12,7 +12,7 @@ import pytest
 from export_checks import OWN_U3M_SCHEMA, PUBLISHED_U3M_SCHEMA, gltf_validator, read_png, validate_gltf, validator_for
 
 from weavecap.export import gltf, mitsuba, pbr, u3m
-from weavecap.export.maps import PbrMaps, map_image, write_map
+from weavecap.export.maps import PbrMaps, map_image
 from weavecap.photo import load_photo, srgb_to_linear
 
 H, W = 24, 36
@@ -29,7 +29,9 @@ def known() -> PbrMaps:
     normal = np.zeros((H, W, 3))
     normal[: H // 2] = (0.0, np.sin(tilt), np.cos(tilt))
     normal[H // 2:] = (np.sin(tilt), 0.0, np.cos(tilt))
-    return PbrMaps(base_color=base.astype(np.float32), normal=normal.astype(np.float32),
+    transmission = np.stack([0.3 * cols / (W - 1), np.full((H, W), 0.1), 0.05 * rows / (H - 1)], axis=-1)
+    return PbrMaps(base_color=base.astype(np.float32), transmission=transmission.astype(np.float32),
+                   translucent_base=np.clip(base * 1.1, 0.0, 1.0).astype(np.float32), normal=normal.astype(np.float32),
                    roughness=(0.2 + 0.6 * cols / (W - 1)).astype(np.float32),
                    opacity=np.where((rows + cols) % 2 == 0, 1.0, 0.25).astype(np.float32),
                    height=(rows / (H - 1)).astype(np.float32), height_mm=0.25, size_mm=(1.8, 1.2), repeats=(1, 1),
@@ -39,8 +41,8 @@ def known() -> PbrMaps:
 @pytest.mark.parametrize("convention, sign", [("opengl", 1.0), ("directx", -1.0)])
 def test_pbr_pngs_store_the_maps(tmp_path, known, convention, sign):
     files = pbr.save_pbr(known, tmp_path, name="f", bits=16, normal_convention=convention)
-    assert [p.name for p in files] == ["f_base_color.png", "f_normal.png", "f_roughness.png", "f_opacity.png",
-                                       "f_height.png", "f_material.json"]
+    assert [p.name for p in files] == ["f_base_color.png", "f_transmission.png", "f_normal.png", "f_roughness.png",
+                                       "f_opacity.png", "f_height.png", "f_material.json"]
     np.testing.assert_allclose(load_photo(tmp_path / "f_base_color.png").rgb, known.base_color, atol=2e-4)
     decoded = read_png(tmp_path / "f_normal.png") * 2.0 - 1.0
     expected = known.normal * np.array([1.0, sign, 1.0])
@@ -146,10 +148,8 @@ def test_gltf_swatch_tiles_the_material_over_its_physical_size(tmp_path, known):
 
 
 def _mitsuba_textures(folder: Path, maps: PbrMaps) -> dict[str, str]:
-    textures = {}
-    for key, kind in (("base_color", "colour"), ("normal", "data"), ("roughness", "data"), ("opacity", "data")):
-        textures[key] = str(folder / f"{key}.png")
-        write_map(textures[key], map_image(maps, key), kind=kind, bits=16)
+    textures = {key: str(folder / f"{key}.png") for key in mitsuba.TEXTURES}
+    mitsuba.write_textures(maps, folder, textures)
     return textures
 
 
@@ -164,7 +164,8 @@ def test_mitsuba_normal_map_is_opengl(tmp_path):
     """Normals tilted up the image catch a light from the top of the image more than one from
     the bottom (and the DirectX file, read as OpenGL, does the opposite)."""
     tilt = np.radians(35.0)
-    maps = PbrMaps(base_color=np.full((8, 8, 3), 0.5, np.float32),
+    maps = PbrMaps(base_color=np.full((8, 8, 3), 0.5, np.float32), transmission=np.zeros((8, 8, 3), np.float32),
+                   translucent_base=np.full((8, 8, 3), 0.5, np.float32),
                    normal=np.broadcast_to(np.array([0.0, np.sin(tilt), np.cos(tilt)], np.float32), (8, 8, 3)).copy(),
                    roughness=np.full((8, 8), 0.9, np.float32), opacity=np.ones((8, 8), np.float32),
                    height=np.zeros((8, 8), np.float32), height_mm=0.1, size_mm=(1.0, 1.0), repeats=(1, 1), ior=1.5)
@@ -177,3 +178,25 @@ def test_mitsuba_normal_map_is_opengl(tmp_path):
 
     top, bottom = lit_from([0.0, -1.0, -1.0]), lit_from([0.0, 1.0, -1.0])
     assert top > 2.0 * bottom
+
+
+def test_the_transmission_splits_into_a_weight_and_a_colour(known):
+    weight, colour = map_image(known, "transmission_weight"), map_image(known, "transmission_color")
+    np.testing.assert_allclose(weight[..., None] * colour, known.transmission, atol=1e-6)
+    assert colour.max() <= 1.0 and np.allclose(colour.max(axis=-1)[weight > 0], 1.0)
+
+
+def test_mitsuba_scene_lets_the_yarns_transmission_through(tmp_path):
+    """Lit only from behind, an opaque swatch (no gaps) of transmission T and no reflection
+    shows T · E cos θ / π towards the camera (the blend's diffuse transmission)."""
+    t = np.array([0.3, 0.2, 0.1], np.float32)
+    maps = PbrMaps(base_color=np.zeros((8, 8, 3), np.float32), transmission=np.broadcast_to(t, (8, 8, 3)).copy(),
+                   translucent_base=np.zeros((8, 8, 3), np.float32),
+                   normal=np.broadcast_to(np.array([0.0, 0.0, 1.0], np.float32), (8, 8, 3)).copy(),
+                   roughness=np.full((8, 8), 0.5, np.float32), opacity=np.ones((8, 8), np.float32),
+                   height=np.zeros((8, 8), np.float32), height_mm=0.1, size_mm=(1.0, 1.0), repeats=(1, 1), ior=1.0)
+    textures = _mitsuba_textures(tmp_path, maps)
+    back = {"sun": {"type": "directional", "direction": [0.0, 0.0, 1.0], "irradiance": {"type": "rgb", "value": 2.0}}}
+    image = mitsuba.render_scene(mitsuba.swatch_scene(maps, textures, swatch_mm=4.0, size=(16, 16), spp=16,
+                                                      lights=back))
+    np.testing.assert_allclose(image[4:12, 4:12].reshape(-1, 3).mean(axis=0), t * 2.0 / np.pi, rtol=0.02)

@@ -1,6 +1,10 @@
-"""The issue's accuracy targets, on a sample of synthetic photos with known truth.
+"""Accuracy on a sample of synthetic photos with known truth, at regression tolerances: about
+twice what these 16 photos measured (turn error median 0.0011°, max 0.014°; pitch error max
+0.045 %; residual skew max 0.036 %, perspective max 0.081 %; every repeat exact), so a change
+that makes preparation worse fails here long before it misses the issue's targets (median
+≤ 0.3°, max ≤ 1°, pitch ≤ 2 %, repeat ≥ 90 %, skew ≤ 1 %).
 
-(``scripts/bench_prepare.py`` measures the same on a bigger set.)
+(``scripts/bench_prepare.py`` measures the same on a bigger set: 80 photos, turn max 0.084°.)
 """
 
 from __future__ import annotations
@@ -27,22 +31,22 @@ def results():
 
 def test_turn_error(results):
     err = np.array([m["turn_err"] for _, m in results])
-    assert np.median(err) <= 0.3 and err.max() <= 1.0, err
+    assert np.median(err) <= 0.003 and err.max() <= 0.03, err
 
 
 def test_pitch_error(results):
     err = np.array([m["pitch_err"] for _, m in results])
-    assert err.max() <= 0.02, err
+    assert err.max() <= 0.001, err
 
 
 def test_repeat_in_yarns(results):
     ok = [m["repeat_ok"] for _, m in results]
-    assert np.mean(ok) >= 0.9, [(kw["pattern"], m["repeat_ok"]) for kw, m in results]
+    assert all(ok), [(kw["pattern"], m["repeat_ok"]) for kw, m in results]
 
 
 def test_residual_skew_and_perspective(results):
-    assert max(m["skew"] for _, m in results) <= 0.01
-    assert max(m["perspective"] for _, m in results) <= 0.02
+    assert max(m["skew"] for _, m in results) <= 0.001
+    assert max(m["perspective"] for _, m in results) <= 0.002
 
 
 def test_custom_non_square_repeat():

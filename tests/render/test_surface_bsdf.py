@@ -244,7 +244,7 @@ def test_reflection_lobes_are_reciprocal_above_the_horizon(textures, lobe):
     f_ca = np.asarray(batch.eval(wc, wa))[0] / np.sum(n * a, 1)
     # points whose sky is open above 50° in every azimuth, and directions both above the
     # yarn's own surface (the mapped normal is bent only for grazing views: none here)
-    horizon = np.max(np.stack([np.asarray(h) for h in batch.point.horizon]), axis=0)
+    horizon = np.max(np.stack([np.asarray(h) for h in batch.point.horizon()]), axis=0)
     keep = (horizon + sb.HORIZON_SOFTNESS < np.sin(np.radians(50))) & (np.sum(n * a, 1) > 0.1) & (np.sum(n * c, 1) > 0.1)
     assert keep.mean() > 0.3 and f_ac[keep].max() > 0
     np.testing.assert_allclose(f_ac[keep], f_ca[keep], rtol=2e-4, atol=1e-6)

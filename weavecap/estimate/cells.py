@@ -137,3 +137,32 @@ def wrap_window(canvas: np.ndarray, shape: tuple[int, int], cells: int) -> np.nd
     c = canvas.shape[0] // n_e
     reps = (-(-cells // n_e), -(-cells // n_a)) + (1,) * (canvas.ndim - 2)
     return np.tile(canvas, reps)[: cells * c, : cells * c]
+
+
+def gap_phase(canvas: np.ndarray, shape: tuple[int, int]) -> tuple[float, float]:
+    """Where the gaps between yarns lie in a repeat's canvas, model-free: (y, x) in canvas px
+    within one cell, (0, 0) when the cells already run from gap to gap.
+
+    A gap is a thin line, dark under a front light and bright under a back light; either way
+    the luminance curves sharply across it, while a yarn, many pixels wide, curves gently. So
+    the mean |∂²I/∂x²| down the canvas (|∂²I/∂y²| across it), folded over the cells and
+    smoothed, peaks at the warp (weft) gaps whatever their brightness — where §4.4's valleys
+    of the projection are the gaps only under a front light. The peak is located to a
+    fraction of a pixel by a parabola. ``canvas`` (n_e*c, n_a*c, 3) wraps around.
+    """
+    from scipy.ndimage import gaussian_filter, gaussian_filter1d
+
+    n_e, n_a = shape
+    c_y, c_x = canvas.shape[0] // n_e, canvas.shape[1] // n_a
+    y = np.sqrt(np.clip(np.asarray(canvas, np.float64), 0.0, None))
+    y = y.mean(axis=2) if y.ndim == 3 else y
+    y = gaussian_filter(y, max(0.7, min(c_y, c_x) / 24), mode="wrap")
+    out = []
+    for axis, n, c_ in ((0, n_e, c_y), (1, n_a, c_x)):
+        curv = np.abs(np.roll(y, -1, axis) - 2 * y + np.roll(y, 1, axis)).mean(axis=1 - axis)
+        prof = gaussian_filter1d(curv.reshape(n, c_).sum(axis=0), c_ / 12, mode="wrap")
+        i = int(np.argmax(prof))
+        a, b, d = prof[(i - 1) % c_], prof[i], prof[(i + 1) % c_]
+        den = a - 2 * b + d
+        out.append((i + (0.5 * (a - d) / den if den < 0 else 0.0)) % c_)
+    return out[0], out[1]

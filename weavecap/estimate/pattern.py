@@ -76,7 +76,7 @@ def _sublattices(shape: tuple[int, int]) -> list[np.ndarray]:
 
 def anneal_pattern(canvas: np.ndarray, renderer: RepeatRenderer, *, start: np.ndarray | None = None,
                    max_sweeps: int = 12, polish: bool = True, interlacing: bool = True, trim: float = TRIM,
-                   match_colour: bool = True) -> PatternResult:
+                   match_colour: bool = True, locked: np.ndarray | None = None) -> PatternResult:
     """Batched annealing at T = 0 of the renderer's pattern against ``canvas`` (§5.1).
 
     Two kinds of sweep read every cell's gain from a few renders: first the complement
@@ -99,6 +99,8 @@ def anneal_pattern(canvas: np.ndarray, renderer: RepeatRenderer, *, start: np.nd
         holds together so, §7.3; a photo with such a look is better explained otherwise), when
         the start interlaces.
     trim : fraction of each cell edge left out; match_colour : see :func:`.cells.cell_errors`.
+    locked : (n_e, n_a) bool, cells never flipped (their state in ``start`` is kept): what a
+        model-free vote decides with confidence (:mod:`.orientation`).
 
     Returns
     -------
@@ -127,7 +129,8 @@ def anneal_pattern(canvas: np.ndarray, renderer: RepeatRenderer, *, start: np.nd
             err_flip = errors(1 - pattern)
             renders += 1
         margin = err_flip - err_now
-        candidates = np.argsort(margin, axis=None)[: int(np.sum(margin < 0))]
+        free_margin = np.where(locked, np.inf, margin) if locked is not None else margin
+        candidates = np.argsort(free_margin, axis=None)[: int(np.sum(free_margin < 0))]
         improved = False
         while candidates.size:  # T = 0: keep a batch of flips only if the objective falls
             trial = pattern.copy().ravel()

@@ -110,7 +110,8 @@ def pitch_of(fabric: Fabric, pitch_mm: float | None) -> float:
     pitch = pitch_mm if pitch_mm is not None else (fabric.scale or {}).get("pitch_mm")
     if pitch is None:
         raise InputError("scale.pitch_mm: the params file does not say how far apart the yarns are, and the maps' "
-                         "physical size depends on it; pass --pitch-mm (e.g. --pitch-mm 0.3)")
+                         "physical size depends on it; pass --pitch-mm (e.g. --pitch-mm 0.3), or --format wif for "
+                         "the draft alone (nothing was written)")
     return float(pitch)
 
 
@@ -177,13 +178,10 @@ def _preview(maps: PbrMaps):
     import tempfile
 
     from . import mitsuba
-    from .maps import MAP_KINDS, map_image, write_map
 
     with tempfile.TemporaryDirectory() as tmp:
-        textures = {}
-        for key, kind in MAP_KINDS.items():
-            textures[key] = str(Path(tmp) / f"{key}.png")
-            write_map(textures[key], map_image(maps, key), kind=kind, bits=16)
+        textures = {key: str(Path(tmp) / f"{key}.png") for key in mitsuba.TEXTURES}
+        mitsuba.write_textures(maps, Path(tmp), textures)
         scene = mitsuba.swatch_scene(maps, textures, swatch_mm=maps.size_mm[0], size=(PREVIEW_PIXELS, PREVIEW_PIXELS),
                                      spp=PREVIEW_SPP)
         return mitsuba.render_scene(scene)

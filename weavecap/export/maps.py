@@ -29,7 +29,12 @@ class PbrMaps:
 
     Attributes
     ----------
-    base_color : (H, W, 3) float32, linear RGB in [0, 1] (written sRGB-encoded in 8/16-bit files)
+    base_color : (H, W, 3) float32, linear RGB in [0, 1] (written sRGB-encoded in 8/16-bit files),
+        for a material that only reflects
+    transmission : (H, W, 3) float32, linear RGB in [0, 1]: the light the yarns let through from
+        behind (a diffuse transmission's colour × amount; the gaps are the opacity's)
+    translucent_base : (H, W, 3) float32, the base colour for a material that blends that
+        transmission in (its reflection keeps 1 − :func:`transmission_weight`)
     normal : (H, W, 3) float32, unit tangent-space normals (OpenGL: +y up the image)
     roughness : (H, W) float32 in [0, 1], perceptual roughness (GGX α = roughness²)
     opacity : (H, W) float32 in [0, 1]: the share of the texel covered by yarn (0 in gaps)
@@ -43,6 +48,8 @@ class PbrMaps:
     """
 
     base_color: np.ndarray
+    transmission: np.ndarray
+    translucent_base: np.ndarray
     normal: np.ndarray
     roughness: np.ndarray
     opacity: np.ndarray
@@ -80,10 +87,14 @@ def specular_level(ior: float, specular: float) -> float:
     return min(1.0, f0(ior, specular) / SPECULAR_SPAN)
 
 
+#: the largest blend weight of the transmission (the reflection keeps at least 5 %)
+MAX_TRANSMISSION = 0.95
+
 #: map name → kind: "colour" is sRGB-encoded in integer files, "data" is written as it is
-#: (normals as (n + 1) / 2)
+#: (normals as (n + 1) / 2); the PBR export writes these
 MAP_KINDS = {
     "base_color": "colour",
+    "transmission": "colour",
     "normal": "data",
     "roughness": "data",
     "opacity": "data",
@@ -91,12 +102,29 @@ MAP_KINDS = {
 }
 
 
+#: the maps of a material that blends reflection and diffuse transmission (Mitsuba's scene)
+BLEND_KINDS = {"translucent_base": "colour", "transmission_weight": "data", "transmission_color": "colour"}
+
+
+def transmission_weight(transmission: np.ndarray) -> np.ndarray:
+    """(H, W): the share of a texel's light given to diffuse transmission when reflection and
+    transmission are blended (Mitsuba's ``blendbsdf``): the largest channel of the transmission
+    albedo (H, W, 3), so that its colour ``transmission / weight`` stays within [0, 1]."""
+    return np.clip(np.max(transmission, axis=-1), 0.0, MAX_TRANSMISSION)
+
+
 def map_image(maps: PbrMaps, name: str, *, normal_convention: str = "opengl") -> np.ndarray:
     """The image a map is stored as: (H, W, 3) or (H, W) float32 in [0, 1], before encoding.
 
-    ``base_color`` is linear (the writer encodes sRGB); ``normal`` is ``(n + 1) / 2`` with
-    y flipped for DirectX; the scalar maps are their values.
+    Colour maps are linear (the writer encodes sRGB); ``normal`` is ``(n + 1) / 2`` with y
+    flipped for DirectX; ``transmission_weight`` and ``transmission_color`` split the
+    transmission into a blend weight and a colour; the scalar maps are their values.
     """
+    if name in ("transmission_weight", "transmission_color"):
+        weight = transmission_weight(maps.transmission)
+        if name == "transmission_weight":
+            return weight.astype(np.float32)
+        return np.clip(maps.transmission / np.maximum(weight[..., None], 1e-6), 0.0, 1.0).astype(np.float32)
     if name == "normal":
         n = maps.normal.astype(np.float32).copy()
         n[..., 1] *= NORMAL_CONVENTIONS[normal_convention]

@@ -12,15 +12,20 @@ fits it per texel from the surface model's own maps and BSDF (no second model):
 - **base colour** — the colour for which the principled BSDF, at the texel's normal, returns
   the same *reflection albedo* as the surface BSDF for a viewer straight above (the capture
   rigs' camera): the surface BSDF's albedo is integrated by sampling its lobes
-  (:func:`weavecap.render.bsdf.sample_surface`, reflected directions only, neighbours'
-  horizons and groove shadowing included), the principled BSDF's (Mitsuba's plugin) for base
-  colour 0 and 1 at the same view, and since the latter is linear in the base colour the
-  solve is exact. Gap texels take their nearest yarn's colour (so filtering and mipmaps do not
-  darken the yarn edges).
+  (:func:`weavecap.render.bsdf.sample_surface`, reflected directions, neighbours' horizons
+  and groove shadowing included), the principled BSDF's (Mitsuba's plugin) for base colour 0
+  and 1 at the same view, and since the latter is linear in the base colour the solve is
+  exact;
+- **transmission** — the light the yarns let through from behind, for the same viewer: the
+  same integral over the directions below the fabric (the surface model's transmission lobes
+  and exit-point visibility), a colour in [0, 1];
+- **translucent base colour** — the base colour for a material that blends a diffuse
+  transmission of that colour in (weight :func:`weavecap.export.maps.transmission_weight`): its reflection lobes
+  keep 1 − weight, so it is solved for reflection / (1 − weight). Gap texels of every colour
+  map take their nearest yarn's value (so filtering and mipmaps do not darken yarn edges).
 
-What a metal-roughness material cannot hold is left out: light through the yarns (the
-surface model's transmission lobes; the gaps still let light through), the body lobes'
-angular shape beyond the principled diffuse one, and the §6.3 irregularity noise.
+Left out: the body lobes' angular shape beyond the principled diffuse one (and the
+transmission's beyond a Lambertian one), and the §6.3 irregularity noise.
 """
 
 from __future__ import annotations
@@ -30,7 +35,7 @@ import math
 import numpy as np
 
 from ..params import Fabric
-from .maps import PbrMaps, specular_level
+from .maps import PbrMaps, specular_level, transmission_weight
 
 #: stratified samples of the surface BSDF per texel (n × n), and of the principled BSDF per
 #: view angle (for its albedo table)
@@ -82,10 +87,11 @@ def principled_albedo(*, roughness: float, specular: float, cos_view: np.ndarray
     return w.mean(axis=0).reshape(k, n * n).mean(axis=1)
 
 
-def surface_albedo(fabric: Fabric, surface, *, seed: int = 0) -> np.ndarray:
-    """(H, W, 3) reflection albedo of the surface BSDF of the face, per texel (its area mean,
-    the maps interpolated as the BSDF interpolates them), for a viewer straight above, per unit
-    of covered area (the gaps are the opacity's business)."""
+def surface_albedo(fabric: Fabric, surface, *, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """(H, W, 3) reflection and transmission albedo of the surface BSDF of the face, per texel
+    (its area mean, the maps interpolated as the BSDF interpolates them), for a viewer straight
+    above — the light it returns from a uniform sky over the face, and from one behind the
+    fabric through the yarns — per unit of covered area (the gaps are the opacity's business)."""
     mi = _mi()
     import drjit as dr
 
@@ -96,7 +102,7 @@ def surface_albedo(fabric: Fabric, surface, *, seed: int = 0) -> np.ndarray:
     h, w = surface.shape
     n = SURFACE_SAMPLES
     rows_per_call = max(1, LANES // (w * n * n))
-    out = np.zeros((h, w, 3), np.float32)
+    out = np.zeros((2, h, w, 3), np.float32)
     for r0 in range(0, h, rows_per_call):
         r1 = min(h, r0 + rows_per_call)
         rr, cc = np.meshgrid(np.arange(r0, r1), np.arange(w), indexing="ij")
@@ -111,12 +117,14 @@ def surface_albedo(fabric: Fabric, surface, *, seed: int = 0) -> np.ndarray:
         wi = mi.Vector3f(0.0, 0.0, 1.0)
         wo, pdf, value, _ = sample_surface(shading, colours, point, wi, mi.Float(s1.ravel()),
                                            mi.Point2f(s2.reshape(-1, 2).T))
-        ok = (wo.z > 0.0) & (pdf > 0.0)
-        weight = dr.select(ok, value / dr.select(ok, pdf, 1.0), 0.0)
-        a = np.array(weight).T.reshape(texels, n * n, 3).mean(axis=1)
-        out[r0:r1] = a.reshape(r1 - r0, w, 3)
+        ok = pdf > 0.0
+        weight = np.array(dr.select(ok, value / dr.select(ok, pdf, 1.0), 0.0)).T.reshape(texels, n * n, 3)
+        up = np.array(wo.z > 0.0).reshape(texels, n * n, 1)
+        out[0, r0:r1] = np.where(up, weight, 0.0).mean(axis=1).reshape(r1 - r0, w, 3)
+        out[1, r0:r1] = np.where(up, 0.0, weight).mean(axis=1).reshape(r1 - r0, w, 3)
     coverage = surface.coverage[0][..., None]
-    return np.where(coverage > 0.0, out / np.maximum(coverage, 1e-6), 0.0).astype(np.float32)
+    out = np.where(coverage > 0.0, out / np.maximum(coverage, 1e-6), 0.0).astype(np.float32)
+    return out[0], out[1]
 
 
 def _fill_gaps(image: np.ndarray, gaps: np.ndarray) -> np.ndarray:
@@ -165,9 +173,14 @@ def pbr_maps(fabric: Fabric, *, pitch_mm: float, texels_per_yarn: int = 16, repe
     a1 = principled_albedo(roughness=rough, specular=level, cos_view=cos_table, base=1.0, seed=seed)
     cos_n = np.clip(normal[..., 2], MIN_COS, 1.0)
     lo, span = np.interp(cos_n, cos_table, a0)[..., None], np.interp(cos_n, cos_table, a1 - a0)[..., None]
-    target = surface_albedo(fabric, surface, seed=seed)
-    base = np.clip((target - lo) / np.maximum(span, 1e-6), 0.0, 1.0)
-    base = _fill_gaps(base, coverage < MIN_COVERAGE)
+    reflection, transmission = surface_albedo(fabric, surface, seed=seed)
+    gaps = coverage < MIN_COVERAGE
+    transmission = _fill_gaps(np.clip(transmission, 0.0, 1.0), gaps)
+    # a material that also transmits gives its reflection lobes the weight 1 - w
+    weight = transmission_weight(transmission)[..., None]
+    base = _fill_gaps(np.clip((reflection - lo) / np.maximum(span, 1e-6), 0.0, 1.0), gaps)
+    translucent = _fill_gaps(np.clip((reflection / np.maximum(1.0 - weight, 1e-6) - lo) / np.maximum(span, 1e-6),
+                                     0.0, 1.0), gaps)
     height = surface.height[FACE] * pitch_mm
     h_lo, h_hi = float(height.min()), float(height.max())
     n_e, n_a = fabric.shape
@@ -176,7 +189,8 @@ def pbr_maps(fabric: Fabric, *, pitch_mm: float, texels_per_yarn: int = 16, repe
     def rep(a: np.ndarray) -> np.ndarray:
         return np.tile(a, tile + (1,) * (a.ndim - 2)).astype(np.float32)
 
-    return PbrMaps(base_color=rep(base), normal=rep(normal), roughness=rep(np.full(coverage.shape, rough)),
+    return PbrMaps(base_color=rep(base), transmission=rep(transmission), translucent_base=rep(translucent),
+                   normal=rep(normal), roughness=rep(np.full(coverage.shape, rough)),
                    opacity=rep(np.clip(coverage, 0.0, 1.0)),
                    height=rep((height - h_lo) / max(h_hi - h_lo, 1e-9)), height_mm=h_hi - h_lo,
                    size_mm=(n_a * repeats * pitch_mm, n_e * repeats * pitch_mm), repeats=tile,

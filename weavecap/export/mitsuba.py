@@ -8,10 +8,16 @@ dictionary renders in-process (:func:`render_swatch`: the U3M preview, the READM
 the comparison with ``weavecap render --mode reference``).
 
 The swatch is a ``rectangle`` in the z = 0 plane facing +z, ``swatch_mm`` wide (scene units:
-metres), the camera on +z looking down at it, y up, over a black backdrop. Its material is, from the outside in:
-``mask`` (opacity: the gaps let the light through) → ``twosided`` → ``normalmap`` (OpenGL
-tangent-space normals) → ``principled`` (base colour, roughness, metallic 0, the yarns' η).
-Every bitmap repeats the tile ``k`` times across the swatch (``to_uv``); Mitsuba puts an
+metres), the camera on +z looking down at it, y up, in a uniform sky (seen through the gaps,
+and through the yarns from behind) with a sun. Its material is, from the outside in:
+``mask`` (opacity: the gaps let the light through) → ``blendbsdf`` (transmission weight) of
+``twosided`` → ``normalmap`` (OpenGL tangent-space normals) → ``principled`` (translucent base
+colour, roughness, metallic 0, the yarns' specular level) and ``principledthin``.
+The yarns' translucency is kept: ``blendbsdf`` mixes that with a
+``principledthin`` of pure diffuse transmission (``diff_trans`` 2, η 1) of the transmission's
+colour, weighted per texel, the reflection's base colour solved for the weight it keeps
+(:mod:`weavecap.export.material`). Every bitmap repeats the tile ``k`` times across the swatch
+(``to_uv``); Mitsuba puts an
 image's first row at v = 0, the bottom of the rectangle, so ``to_uv`` also flips v to show the
 maps as they look in the PNG files (row 0 at the top).
 
@@ -31,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .maps import PbrMaps
+from .maps import BLEND_KINDS, PbrMaps, map_image, write_map
 
 #: plugin type → the XML element it is written as
 PLUGIN_TAGS = {
@@ -41,7 +47,8 @@ PLUGIN_TAGS = {
     **dict.fromkeys(("independent", "stratified"), "sampler"),
     **dict.fromkeys(("constant", "directional", "envmap", "point"), "emitter"),
     **dict.fromkeys(("rectangle", "obj", "ply"), "shape"),
-    **dict.fromkeys(("principled", "normalmap", "mask", "twosided", "diffuse", "weavecap_surface"), "bsdf"),
+    **dict.fromkeys(("principled", "principledthin", "normalmap", "mask", "twosided", "blendbsdf", "diffuse",
+                     "weavecap_surface"), "bsdf"),
     "bitmap": "texture",
 }
 
@@ -51,8 +58,6 @@ SKY_RADIANCE = 0.6
 SUN_IRRADIANCE = 2.0
 SUN_DIRECTION = (-0.3, -0.4, -1.0)
 FOV_DEG = 30.0
-BACKDROP_DEPTH = 0.05  # how far below the swatch the black backdrop lies, in half-swatch widths
-BACKDROP_SIZE = 4.0  # the backdrop's side in half-swatch widths
 PLUGIN = "weavecap_surface"
 
 
@@ -138,7 +143,7 @@ def swatch_scene(maps: PbrMaps, textures: dict[str, str], *, swatch_mm: float, s
     Parameters
     ----------
     maps : the material (tile size, specular level)
-    textures : map name → image file (``base_color``, ``normal``, ``roughness``, ``opacity``)
+    textures : map name → image file (:data:`TEXTURES`)
     swatch_mm : side of the square swatch (whole tiles: ``k = swatch_mm / tile``)
     size : (width, height) pixels; spp : samples per pixel
     lights : emitters by name (default: :data:`SKY_RADIANCE` sky and a sun)
@@ -147,25 +152,8 @@ def swatch_scene(maps: PbrMaps, textures: dict[str, str], *, swatch_mm: float, s
     from ..backend import mitsuba
 
     mi = mitsuba()
-
     k = (swatch_mm / maps.size_mm[0], swatch_mm / maps.size_mm[1])
     half = swatch_mm / 2000.0
-    to_uv = mi.ScalarTransform4f().scale([k[0], -k[1], 1.0])
-
-    def bitmap(key: str, raw: bool) -> dict:
-        return {"type": "bitmap", "filename": textures[key], "raw": raw, "to_uv": to_uv, "filter_type": "bilinear"}
-
-    material = bsdf or {
-        "type": "mask",
-        "opacity": bitmap("opacity", True),
-        "bsdf": {"type": "twosided", "bsdf": {
-            # no shadow-terminator darkening: the maps' normals are the yarns' own relief, the
-            # material was fitted without it, and glTF/U3M viewers apply none
-            "type": "normalmap", "normalmap": bitmap("normal", True), "use_shadowing_function": False,
-            "bsdf": {"type": "principled", "base_color": bitmap("base_color", False),
-                     "roughness": bitmap("roughness", True), "metallic": 0.0,
-                     "specular": float(maps.specular_level)}}},
-    }
     distance = half / math.tan(math.radians(FOV_DEG) / 2.0) * 1.02
     return {
         "type": "scene",
@@ -179,21 +167,71 @@ def swatch_scene(maps: PbrMaps, textures: dict[str, str], *, swatch_mm: float, s
         **(lights or {"sky": {"type": "constant", "radiance": {"type": "rgb", "value": SKY_RADIANCE}},
                       "sun": {"type": "directional", "direction": list(SUN_DIRECTION),
                               "irradiance": {"type": "rgb", "value": SUN_IRRADIANCE}}}),
-        "swatch": {"type": "rectangle", "to_world": mi.ScalarTransform4f().scale([half, half, 1.0]), "bsdf": material},
-        # a black cloth close under the swatch: the gaps show black, and no light comes from
-        # below (the principled BSDF has no transmission through the yarns to show it)
-        "backdrop": {"type": "rectangle",
-                     "to_world": mi.ScalarTransform4f().translate([0.0, 0.0, -BACKDROP_DEPTH * half]).scale(
-                         [BACKDROP_SIZE * half, BACKDROP_SIZE * half, 1.0]),
-                     "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": 0.0}}},
+        "swatch": {"type": "rectangle", "to_world": mi.ScalarTransform4f().scale([half, half, 1.0]),
+                   "bsdf": bsdf or material(maps, textures, (1.0 / k[0], 1.0 / k[1]))},
     }
+
+
+def material(maps: PbrMaps, textures: dict[str, str], tile_uv: tuple[float, float]) -> dict:
+    """The maps on plain Mitsuba BSDFs (module docstring), as a ``load_dict`` dictionary.
+
+    Parameters
+    ----------
+    maps : the material (its specular level)
+    textures : map name → image file (:data:`TEXTURES`)
+    tile_uv : (width, height) of one tile in the surface's texture coordinates
+    """
+    from ..backend import mitsuba
+
+    mi = mitsuba()
+    to_uv = mi.ScalarTransform4f().scale([1.0 / tile_uv[0], -1.0 / tile_uv[1], 1.0])
+
+    def bitmap(key: str, raw: bool) -> dict:
+        return {"type": "bitmap", "filename": textures[key], "raw": raw, "to_uv": to_uv, "filter_type": "bilinear"}
+
+    reflection = {"type": "twosided", "bsdf": {
+        # no shadow-terminator darkening: the maps' normals are the yarns' own relief, the
+        # material was fitted without it, and glTF/U3M viewers apply none
+        "type": "normalmap", "normalmap": bitmap("normal", True), "use_shadowing_function": False,
+        "bsdf": {"type": "principled", "base_color": bitmap("translucent_base", False),
+                 "roughness": bitmap("roughness", True), "metallic": 0.0, "specular": float(maps.specular_level)}}}
+    transmission = {"type": "principledthin", "base_color": bitmap("transmission_color", False), "diff_trans": 2.0,
+                    "eta": 1.0, "roughness": 1.0}
+    return {"type": "mask", "opacity": bitmap("opacity", True),
+            "bsdf": {"type": "blendbsdf", "weight": bitmap("transmission_weight", True), "bsdf_0": reflection,
+                     "bsdf_1": transmission}}
+
+
+#: the maps the swatch scene reads, and how each is stored
+TEXTURES = {"normal": "data", "roughness": "data", "opacity": "data", **BLEND_KINDS}
+
+
+def maps_mode(maps: PbrMaps, textures: dict[str, str], name: str = "exported-maps"):
+    """A ``weavecap render`` mode (:class:`weavecap.render.modes.Mode`) that shades the mesh
+    with the maps on plain Mitsuba's BSDFs and integrates with Mitsuba's ``path``: the exported
+    material in the reference renderer's very scene (meshes' UVs in metres). Register it with
+    :func:`weavecap.render.modes.register_mode` to compare with ``--mode reference``."""
+    from ..backend import mitsuba
+    from ..render.modes import Mode
+
+    mi = mitsuba()
+    tile_m = (maps.size_mm[0] / 1000.0, maps.size_mm[1] / 1000.0)
+    return Mode(name, "the exported PBR maps on plain Mitsuba",
+                bsdf=lambda *_: mi.load_dict(material(maps, textures, tile_m)),
+                integrator=lambda lighting, options: {"type": "path", "max_depth": int(options.max_depth)})
 
 
 def scene_files(name: str) -> dict[str, str]:
     """The files of the Mitsuba export, relative to its folder."""
-    files = {key: f"textures/{name}_{key}.png" for key in ("base_color", "normal", "roughness", "opacity")}
+    files = {key: f"textures/{name}_{key}.png" for key in TEXTURES}
     files.update(scene=f"{name}.xml", weavecap=f"{name}_weavecap.xml", params=f"{name}.json")
     return files
+
+
+def write_textures(maps: PbrMaps, folder: Path, files: dict[str, str]) -> None:
+    """The maps the swatch scene reads (:data:`TEXTURES`), as 16-bit PNGs at ``files``."""
+    for key, kind in TEXTURES.items():
+        write_map(Path(folder) / files[key], map_image(maps, key), kind=kind, bits=16)
 
 
 def save_scenes(maps: PbrMaps, fabric, folder: Path, *, name: str, swatch_mm: float, texels_per_yarn: int) -> list[Path]:
@@ -201,11 +239,9 @@ def save_scenes(maps: PbrMaps, fabric, folder: Path, *, name: str, swatch_mm: fl
     principled BSDF (plain Mitsuba), and ``<name>_weavecap.xml`` with weavecap's surface BSDF
     and path tracer (:func:`load_scene`), with the fabric's params beside it."""
     from ..params import save
-    from .maps import MAP_KINDS, map_image, write_map
 
     files = scene_files(name)
-    for key in ("base_color", "normal", "roughness", "opacity"):
-        write_map(folder / files[key], map_image(maps, key), kind=MAP_KINDS[key], bits=16)
+    write_textures(maps, folder, files)
     plain = swatch_scene(maps, files, swatch_mm=swatch_mm)
     save_scene(plain, folder / files["scene"])
     save(fabric, folder / files["params"])

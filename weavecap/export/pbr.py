@@ -1,9 +1,11 @@
 """PBR maps for Blender, Substance, Unreal, Unity: one image per map and the physical size.
 
-Writes ``<name>_base_color``, ``_normal``, ``_roughness``, ``_opacity`` and ``_height`` as
-8- or 16-bit PNG or as EXR, and ``<name>_material.json``: the tile's size in millimetres, the
-height map's amplitude, the conventions (sRGB base colour, OpenGL or DirectX normals, GGX
-roughness with α = roughness², metalness 0) and the index of refraction.
+Writes ``<name>_base_color``, ``_transmission``, ``_normal``, ``_roughness``, ``_opacity`` and
+``_height`` as 8- or 16-bit PNG or as EXR, and ``<name>_material.json``: the tile's size in
+millimetres, the height map's amplitude, the conventions (sRGB colour maps, OpenGL or DirectX
+normals, GGX roughness with α = roughness², metalness 0) and the specular reflectance. The
+base colour is for a material that only reflects; the transmission map is the light the yarns
+let through from behind, for a renderer that mixes in a diffuse translucency.
 """
 
 from __future__ import annotations
@@ -39,6 +41,8 @@ def material_description(maps: PbrMaps, files: dict[str, str], *, normal_convent
         "metalness": 0.0,
         "maps": {
             "base_color": {"file": files["base_color"], "encoding": "sRGB" if bits else "linear"},
+            "transmission": {"file": files["transmission"], "encoding": "sRGB" if bits else "linear",
+                             "meaning": "light through the yarns from behind (diffuse transmission colour x amount)"},
             "normal": {"file": files["normal"], "convention": normal_convention, "encoding": "(n + 1) / 2"},
             "roughness": {"file": files["roughness"], "encoding": "GGX alpha = value^2"},
             "opacity": {"file": files["opacity"], "encoding": "coverage: 0 gap, 1 yarn"},

@@ -34,6 +34,9 @@ class FitConfig:
         batched T = 0 sweeps with the fit's current values)
     plies_scans : fractions of the steps after which the number of plies is scanned over its
         whole range with everything else fixed (:func:`weavecap.fit.joint.scan_plies`)
+    plies_flat : when the first scan's loss varies by less than this share of its minimum
+        over every count, the photo does not determine the plies: the start's count is held
+        and no more steps go to it (issue 5 measured 2–7 % on forward-model renders)
     colour_solves : fractions of the steps after which the body colours are solved in closed
         form with everything else fixed (:func:`weavecap.fit.joint.solve_colours`). Once, late
         in each round: a solve after the first step, on cells not yet registered, set one yarn
@@ -53,6 +56,16 @@ class FitConfig:
         (plain, twill, satin, basket, rib) when that, fitted with its pattern fixed, leaves a
         loss at most this fraction higher: a named weave is far likelier a priori than one that
         differs from it in a cell or two
+    family_colours : end each fit on the photo's own yarn colours: scale each family's body
+        colours so that its mean at the centres of the cells it tops matches the photo's
+        (:func:`weavecap.fit.joint.match_family_colours`, §5.2)
+    vote_lock : a cell whose model-free vote (:mod:`weavecap.estimate.orientation`) is at
+        least this decided keeps the vote's state through the fit: on the independent bench
+        photos 98% of such cells were right (92% of those voted 0.3–0.5, 70% under 0.05); on
+        the forward model's own renders no cell reaches it (votes ≤ 0.43)
+    vote_margin : the named-weave end stage keeps a custom pattern whose agreement with the
+        votes (:func:`weavecap.estimate.orientation.agreement`) is more than this above the
+        named weave's
     """
 
     iterations: int = 120
@@ -67,7 +80,8 @@ class FitConfig:
     pattern_moves: bool = True
     pattern_sweeps: tuple[float, ...] = (0.3, 0.7)
     plies_scans: tuple[float, ...] = (0.3, 0.7)
-    colour_solves: tuple[float, ...] = (0.7,)
+    plies_flat: float = 0.05
+    colour_solves: tuple[float, ...] = (0.0, 0.7)
     radius_step: float = 0.5
     radius_min_step: float = 0.04
     radius_every: int = 6
@@ -77,6 +91,9 @@ class FitConfig:
     extra_rounds: int = 3
     extra_round_gain: float = 0.05
     named_weave_tolerance: float = 0.05
+    family_colours: bool = True
+    vote_lock: float = 0.5
+    vote_margin: float = 0.05
 
     def with_(self, **changes) -> "FitConfig":
         return replace(self, **changes)

@@ -89,14 +89,11 @@ def family_masks(pattern: np.ndarray, shape: tuple[int, int], *, centre_share: f
 
 def mean_lab(image: np.ndarray, mask: np.ndarray) -> np.ndarray:
     """CIELAB (D65) of the mean linear RGB of ``image`` over ``mask``; NaN where it is empty."""
-    from skimage.color import rgb2lab
-
-    from ..photo import linear_to_srgb
+    from ..estimate.colour import linear_to_lab
 
     if not np.any(mask):
         return np.full(3, np.nan)
-    rgb = np.clip(np.asarray(image, np.float64)[mask][:, :3].mean(axis=0), 0.0, 1.0)
-    return rgb2lab(np.clip(linear_to_srgb(rgb), 0.0, 1.0).reshape(1, 1, 3))[0, 0]
+    return linear_to_lab(np.clip(np.asarray(image, np.float64)[mask][:, :3].mean(axis=0), 0.0, 1.0))
 
 
 def fidelity(photo: np.ndarray, render: np.ndarray, pattern: np.ndarray, *, centre_share: float = 0.5) -> Fidelity:

@@ -31,8 +31,8 @@ from typing import Callable
 import numpy as np
 import torch
 
-from ..model.render import blur, blurred_mse, mse_and_gradients, render_numpy, white_level
-from ..model.scene import GEOMETRY_KEYS, FabricScene, View, build_scene
+from ..model.render import blur, blurred_mse, gbuffer, mse_and_gradients, render_numpy, white_level
+from ..model.scene import GEOMETRY_KEYS, FabricScene, LightRig, View, build_scene
 from ..params import CONTINUOUS_KEYS, FIT_RANGES, Fabric
 from .config import FitConfig
 
@@ -41,6 +41,10 @@ BODY_COLOUR_KEYS = ("warp.body_reflection", "warp.body_subsurface", "weft.body_r
 #: target pixels at or above this share of the white level are clipped by the camera and say
 #: nothing about a colour that only brightens them: :func:`solve_colours` leaves them out
 CLIPPED_SHARE = 0.98
+#: the photo determines a channel of the rig's gain when its standard error is at most this share
+GAIN_DETERMINED = 0.05
+#: ... from at least this many pixels that are wholly gap in the render and unclipped in the photo
+GAIN_MIN_PIXELS = 12
 
 
 @dataclass
@@ -56,6 +60,8 @@ class FitResult:
     seconds : wall time
     stopped : "converged", "budget" or "iterations"
     moves : proposals and acceptances per kind of discrete move
+    rig : the light rig of the best fabric, with its fitted gain (the photo's exposure and
+        white balance; :class:`weavecap.model.scene.LightRig`)
     """
 
     fabric: Fabric
@@ -65,6 +71,7 @@ class FitResult:
     seconds: float
     stopped: str
     moves: dict = field(default_factory=dict)
+    rig: LightRig | None = None
 
 
 class _Vector:
@@ -156,7 +163,8 @@ class _Annealer:
 def scan_plies(fs: FabricScene, measure: Callable[[], float]) -> dict:
     """A T = 0 global move on the number of plies: try every count of Table 1's range with
     everything else fixed and keep the lowest loss. ``measure()`` is the loss of the scene's
-    current state. Returns the renders made and whether the count changed.
+    current state. Returns the renders made, whether the count changed, and the loss's range
+    over the counts relative to its minimum (how much the photo tells them apart).
 
     The Metropolis proposals of :class:`_Annealer` change the count by one at a time; from a
     start far off (the initializer barely sees plies) it takes several accepted moves to
@@ -175,31 +183,76 @@ def scan_plies(fs: FabricScene, measure: Callable[[], float]) -> dict:
             tried[n] = measure()
     best = min(tried, key=tried.get)
     fs.set("plies", best)
-    return {"renders": len(tried) - 1, "changed": int(best != current)}
+    spread = (max(tried.values()) - tried[best]) / max(tried[best], 1e-12)
+    return {"renders": len(tried) - 1, "changed": int(best != current), "range": float(spread)}
+
+
+def _range_scale(systems: list, k_now: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> float:
+    """The common factor s on the gain of channels the photo does not pin: the smallest s
+    (from 1 / max k, i.e. a gain of at least 1, up to 64) whose best colours within their range
+    explain those channels as well as any s does (within 0.1 % of the loss; factors 1.25
+    apart). Raising the gain past what the range needs changes nothing but the colour-free
+    light (k × the rest), so the smallest such s is the one the photo asks for.
+
+    ``systems``: per channel (colour bases a, colour-free part d, target t); the loss of a
+    gain k is min over colours in range of ‖t − k d − k a x‖², by one QR of a per channel.
+    """
+    from scipy.optimize import lsq_linear
+
+    prepared = []
+    for a, d, t in systems:
+        q, r = np.linalg.qr(a)
+        prepared.append((r, q.T @ t, q.T @ d, float(t @ t), float(t @ d), float(d @ d)))
+    def loss(f: float) -> float:
+        total = 0.0
+        for (r, qt, qd, tt, td, dd), k in zip(prepared, k_now * f):
+            qb = qt - k * qd
+            x = lsq_linear(k * r, qb, bounds=(lo, hi)).x
+            total += tt - 2 * k * td + k * k * dd - qb @ qb + float(np.sum((k * r @ x - qb) ** 2))
+        return total
+
+    factors = float(1.0 / k_now.max()) * 1.25 ** np.arange(0, 64)
+    factors = factors[factors <= 64.0]
+    losses = np.array([loss(f) for f in factors])
+    good = losses.min() + 1e-3 * abs(losses.min()) + 1e-15
+    i = int(np.flatnonzero(losses <= good)[0])
+    if i == 0:
+        return float(factors[0])
+    lo_f, hi_f = float(factors[i - 1]), float(factors[i])  # the smallest good factor, by bisection
+    for _ in range(12):
+        mid = 0.5 * (lo_f + hi_f)
+        lo_f, hi_f = (lo_f, mid) if loss(mid) <= good else (mid, hi_f)
+    return hi_f
 
 
 def solve_colours(fs: FabricScene, target: np.ndarray, measure: Callable[[], float], *, spp: int,
-                  blur_px: float, keys: tuple[str, ...] = BODY_COLOUR_KEYS, split: str | None = None) -> dict:
-    """A T = 0 global move on the body colours R^B and S^B of warp and weft (§3.3): solve them
-    all at once in closed form with everything else fixed, and keep the result if it lowers the
-    loss. ``measure()`` is the loss of the scene's current state. Returns the renders made and
-    whether the colours changed.
+                  blur_px: float, keys: tuple[str, ...] = BODY_COLOUR_KEYS, gain: bool = False) -> dict:
+    """A T = 0 global move on the body colours R^B and S^B of warp and weft (§3.3), and with
+    ``gain`` on the rig's gain (the photo's exposure and white balance,
+    :class:`weavecap.model.scene.LightRig`): solve them all at once in closed form with
+    everything else fixed, and keep the result if it lowers the loss. ``measure()`` is the
+    loss of the scene's current state. Returns the renders made, whether anything changed,
+    and the gain and how it was decided.
 
-    The render is linear in the body colours (the body lobes weigh them by m_r and 1 − m_r and
-    the rest of the light does not depend on them), so one render with every body colour black
-    and one per colour set to white give, channel by channel, a linear least-squares problem,
-    solved within Table 1's range on the target's unclipped pixels. Gradient steps can leave
-    the colours stuck: once the render glows above the camera's white level (a back-lit clear
-    yarn) or a colour sits at 0 with the specular terms standing in for it, the gradient that
-    would bring it back is zero or points away. A random 2×3 of the fit bench, started from an
-    initializer guess with a black warp, ended with both body colours black at 31.2 dB; with
-    one solve at 70% of each round it reaches 35.2 dB.
+    The render is linear in the body colours (the rest of the light does not depend on them),
+    so one render with every body colour black and one per colour set to white give, channel
+    by channel, a linear least-squares problem, solved on the target's unclipped pixels.
+    Gradient steps can leave the colours stuck: once the render glows above the camera's white
+    level (a back-lit clear yarn) or a colour sits at 0 with the specular terms standing in
+    for it, the gradient that would bring it back is zero or points away. A random 2×3 of the
+    fit bench, started from an initializer guess with a black warp, ended with both body
+    colours black at 31.2 dB; with one solve at 70% of each round it reaches 35.2 dB.
 
-    With ``split`` (the key of m_r, ``specular.coefficient``, free along with all four
-    colours) the unknowns are the products the render sees, m_r R^B and (1 − m_r) S^B, and
-    m_r — which only splits the body light between the two (an exact null direction) — is
-    then chosen mid-way in the interval that keeps every colour within [0, 1]: a colour left
-    at 0 or 1 stops the next gradient steps at the clamp.
+    The gain k multiplies the whole render. Only what depends on no fitted value fixes k_c:
+    the back light seen through the gaps, on the pixels that are wholly gap in the render and
+    not clipped in the photo (highlights and transmitted light carry R^S and T^S, which the
+    gradient steps fit; a gap's edge moves with the radii). Where there are too few such
+    pixels (:data:`GAIN_MIN_PIXELS`: dark, clipped or thin gaps) or they spread too much (a
+    standard error of k_c over :data:`GAIN_DETERMINED` of it), the photo does not determine
+    k_c: those channels' gain is scaled evenly by the smallest factor (a gain of at least 1 in
+    the largest channel) whose colours, within their Table 1 range, explain the photo as well
+    as any (:func:`_range_scale`) — a photo brighter than the rig's white fabric gets the
+    exposure that brings it within reach instead of colours at the clamp.
     """
     from scipy.optimize import lsq_linear
 
@@ -207,15 +260,20 @@ def solve_colours(fs: FabricScene, target: np.ndarray, measure: Callable[[], flo
     if not keys:
         return {"renders": 0, "changed": 0}
     before = {k: fs.to_fabric().get(k) for k in keys}
-    before_split = fs.to_fabric().get(split) if split else None
+    rig_before = fs.rig
     current = measure()
 
     def shown() -> np.ndarray:  # the render as photographed, before the camera's clipping
         return blur(render_numpy(fs, spp=spp), blur_px).astype(np.float64)
 
+    k_now = np.asarray(fs.rig.gain, np.float64)
+    if gain:
+        fs.rig = fs.rig.with_gain(1.0)  # the bases at unit gain; k is solved for
     for k in keys:
         fs.set(k, (0.0, 0.0, 0.0))
     dark = shown()
+    g = gbuffer(fs, spp=spp, seed=0)
+    seen_gap = 1.0 - np.array(g.hit, dtype=np.float64).reshape(*g.shape, g.spp).mean(axis=2)
     basis = []
     for k in keys:
         fs.set(k, (1.0, 1.0, 1.0))
@@ -223,54 +281,128 @@ def solve_colours(fs: FabricScene, target: np.ndarray, measure: Callable[[], flo
         fs.set(k, (0.0, 0.0, 0.0))
     target = np.asarray(target, dtype=np.float64)
     seen = target < CLIPPED_SHARE * white_level(target)
-    # the unknowns: the colours (each colour = product / weight), or with a split the products
-    # the render sees, m_r R^B and (1 - m_r) S^B, each up to what Table 1's m_r allows
-    reflection = np.array([k.endswith("reflection") for k in keys])
-    if split:
-        m_lo, m_hi = FIT_RANGES[split]
-        weight = np.where(reflection, before_split, 1.0 - before_split)
-        lo, hi = np.zeros(len(keys)), np.where(reflection, m_hi, 1.0 - m_lo)
-    else:
-        weight = np.ones(len(keys))
-        lo, hi = (np.array(bounds) for bounds in zip(*(FIT_RANGES[k] for k in keys)))
-    products = np.zeros((len(keys), 3))
+    lo, hi = (np.array(bounds) for bounds in zip(*(FIT_RANGES[k] for k in keys)))
+    systems = []  # per channel: (colour bases, colour-free part, target) where unclipped
     for ch in range(3):
         m = seen[..., ch].ravel() & np.isfinite(target[..., ch].ravel())
-        if m.sum() >= len(keys):
-            a = np.stack([b[..., ch].ravel()[m] / w for b, w in zip(basis, weight)], axis=1)
-            products[:, ch] = lsq_linear(a, target[..., ch].ravel()[m] - dark[..., ch].ravel()[m],
-                                         bounds=(lo, hi)).x
-    if split:  # the split that keeps every colour within [0, 1], as far from the ends as it can
-        p_max, q_max = products[reflection].max(initial=0.0), products[~reflection].max(initial=0.0)
-        low, high = max(m_lo, p_max), min(m_hi, 1.0 - q_max)
-        m_r = 0.5 * (low + high) if low <= high else float(np.clip(p_max / max(p_max + q_max, 1e-12), m_lo, m_hi))
-        fs.set(split, m_r)
-        weight = np.where(reflection, m_r, 1.0 - m_r)
-    for k, product, w in zip(keys, products, weight):
-        lo_k, hi_k = FIT_RANGES[k]
-        fs.set(k, tuple(np.clip(product / w, lo_k, hi_k)))
-    renders = len(keys) + 2
-    if measure() < current:
-        return {"renders": renders, "changed": 1}
-    for k, colour in before.items():
-        fs.set(k, colour)
-    if split:
-        fs.set(split, before_split)
-    return {"renders": renders, "changed": 0}
+        systems.append(None if m.sum() < len(keys) + 2 else
+                       (np.stack([b[..., ch].ravel()[m] for b in basis], axis=1), dark[..., ch].ravel()[m],
+                        target[..., ch].ravel()[m]))
+    k_new, determined = k_now.copy(), np.zeros(3, bool)
+    if gain:
+        # only what no fitted value shapes fixes k_c: the back light seen through the gaps, on
+        # the pixels that are wholly gap in the render (a radius a little off moves the rest)
+        # and not clipped in the photo; the robust spread of photo / backdrop there gives its error
+        from scipy.ndimage import binary_erosion
+
+        pure = binary_erosion(seen_gap >= 1.0, iterations=1 + int(np.ceil(2 * blur_px)), border_value=1)
+        for ch in range(3):
+            where = pure & seen[..., ch] & np.isfinite(target[..., ch])
+            if fs.rig.backdrop <= 0 or where.sum() < GAIN_MIN_PIXELS:
+                continue
+            ratio = target[..., ch][where] / fs.rig.backdrop
+            k_c = float(np.median(ratio))
+            spread = 1.4826 * float(np.median(np.abs(ratio - k_c)))
+            se = spread / np.sqrt(where.sum() / (2 * blur_px + 1) ** 2)
+            if k_c > 0 and se <= GAIN_DETERMINED * k_c:
+                k_new[ch], determined[ch] = k_c, True
+        free = ~determined & np.array([sy is not None for sy in systems])
+        if free.any():  # not fixed by the photo: one scale over those channels, set by the range
+            k_new[free] = k_now[free] * _range_scale([systems[ch] for ch in np.flatnonzero(free)], k_now[free],
+                                                     lo, hi)
+
+    def solved(ch: int) -> np.ndarray:  # the colours within their range at the gain k_new
+        if systems[ch] is None:
+            return np.array([np.mean(before[k][ch]) for k in keys])
+        a, d, t = systems[ch]
+        scale = k_new[ch] if gain else 1.0  # without ``gain`` the bases carry the rig's gain
+        return lsq_linear(scale * a, t - scale * d, bounds=(lo, hi)).x
+
+    colours = np.stack([solved(ch) for ch in range(3)], axis=1)
+    colours = np.clip(colours, lo[:, None], hi[:, None])
+    if gain:
+        fs.rig = fs.rig.with_gain(k_new)
+    for k, colour in zip(keys, colours):
+        fs.set(k, tuple(colour))
+    changed = measure() < current
+    if not changed:
+        fs.rig = rig_before
+        for k, colour in before.items():
+            fs.set(k, colour)
+    out = {"renders": len(keys) + 2, "changed": int(changed)}
+    if gain:
+        out.update(gain=[round(float(v), 4) for v in fs.rig.gain], gain_determined=[bool(v) for v in determined])
+    return out
 
 
-def _pattern_sweep(fs: FabricScene, target: np.ndarray, *, light: str, spp: int, blur_px: float) -> dict:
+def match_family_colours(fs: FabricScene, target: np.ndarray, measure: Callable[[], float], *, spp: int,
+                         blur_px: float, gain: bool = False) -> dict:
+    """End on the photo's own yarn colours (§5.2): scale each family's body colours (R^B and
+    S^B together, per channel) so that the render's mean colour over the centres of the cells
+    where that family is on top equals the photo's there
+    (:func:`weavecap.fit.fidelity.family_masks`, the masks the fidelity figures use).
+
+    The MSE weighs every pixel alike, so a fit can trade the yarn centres' colour for the gaps,
+    the edges or the highlights; what a person sees of a yarn is its colour where it lies on
+    top. The render is linear in each family's colours, so three renders (both families black,
+    each alone at its colour) give a 2 × 2 system per channel. Colours stay within [0, 1];
+    with ``gain`` a colour that would pass 1 raises the rig's gain (all channels alike)
+    instead, and every colour comes down by as much. Returns the renders made, the loss
+    before and after, and the scales.
+    """
+    from .fidelity import family_masks
+
+    pattern = fs.fabric.pattern
+    masks = family_masks(pattern, target.shape[:2])
+    families = [f for f in ("warp", "weft") if masks[f].any()]
+    keys = {f: [k for k in (f"{f}.body_reflection", f"{f}.body_subsurface") if k in fs.values and k not in fs.textures]
+            for f in families}
+    before = {k: fs.to_fabric().get(k) for f in families for k in keys[f]}
+    loss_before = measure()
+
+    def shown() -> np.ndarray:
+        return blur(render_numpy(fs, spp=spp), blur_px).astype(np.float64)
+
+    for k in before:
+        fs.set(k, (0.0, 0.0, 0.0))
+    dark = shown()
+    parts = {}
+    for f in families:
+        for k in keys[f]:
+            fs.set(k, before[k])
+        parts[f] = shown() - dark
+        for k in keys[f]:
+            fs.set(k, (0.0, 0.0, 0.0))
+    target = np.asarray(target, np.float64)
+    scale = np.ones((len(families), 3))
+    for ch in range(3):
+        a = np.array([[parts[g][..., ch][masks[f]].mean() for g in families] for f in families])
+        b = np.array([target[..., ch][masks[f]].mean() - dark[..., ch][masks[f]].mean() for f in families])
+        if abs(np.linalg.det(a)) > 1e-12:
+            scale[:, ch] = np.clip(np.linalg.solve(a, b), 0.0, None)
+    wanted = {k: np.asarray(before[k], np.float64) * scale[i] for i, f in enumerate(families) for k in keys[f]}
+    over = max(1.0, max(float(v.max()) for v in wanted.values())) if gain else 1.0
+    if over > 1.0:
+        fs.rig = fs.rig.with_gain(np.asarray(fs.rig.gain) * over)
+    for k, v in wanted.items():
+        fs.set(k, tuple(np.clip(v / over, 0.0, 1.0)))
+    return {"renders": 2 + len(families), "loss_before": loss_before, "loss_after": measure(),
+            "scale": {f: [round(float(v), 4) for v in scale[i]] for i, f in enumerate(families)}}
+
+
+def _pattern_sweep(fs: FabricScene, target: np.ndarray, *, spp: int, blur_px: float,
+                   locked: np.ndarray | None = None) -> dict:
     """Re-run §5.1's batched T = 0 pattern annealing with the fit's current values, and keep
-    its pattern (it only accepts flips that lower the error)."""
+    its pattern (it only accepts flips that lower the error); ``locked`` cells keep their state."""
     from ..estimate.forward import RepeatRenderer
     from ..estimate.pattern import anneal_pattern
     from ..estimate.sampling import interlaces
 
     before = fs.fabric.pattern.copy()
     c = target.shape[0] // before.shape[0]
-    renderer = RepeatRenderer(fs.to_fabric(), cell_px=c, light=light, spp=spp, blur_cells=blur_px / c,
+    renderer = RepeatRenderer(fs.to_fabric(), cell_px=c, light=fs.rig, spp=spp, blur_cells=blur_px / c,
                               white=white_level(target))
-    result = anneal_pattern(target, renderer, start=before, match_colour=False)
+    result = anneal_pattern(target, renderer, start=before, match_colour=False, locked=locked)
     # a woven fabric interlaces: a yarn that is on top (or under) across the whole repeat would
     # not be held in place, so such a sweep result is a fit artefact and is not kept
     keep = not np.array_equal(result.pattern, before) and (interlaces(result.pattern) or not interlaces(before))
@@ -318,9 +450,10 @@ class _RadiusSearch:
         return loss
 
 
-def fit(target: np.ndarray, start: Fabric, *, config: FitConfig = FitConfig(), light: str = "both",
+def fit(target: np.ndarray, start: Fabric, *, config: FitConfig = FitConfig(), light: str | LightRig = "both",
         seed: int = 0, budget_s: float | None = None, fixed: frozenset[str] = frozenset(), blur_px: float = 0.0,
-        radius_mode: str = "search", progress: Callable[[int, int, float], None] | None = None) -> FitResult:
+        radius_mode: str = "search", votes: np.ndarray | None = None,
+        progress: Callable[[int, int, float], None] | None = None) -> FitResult:
     """Fit ``start`` to ``target``, one repeat of the photo (§6).
 
     Parameters
@@ -329,12 +462,17 @@ def fit(target: np.ndarray, start: Fabric, *, config: FitConfig = FitConfig(), l
         photo (:func:`weavecap.estimate.cells.cell_canvas`, c = :func:`.config.cell_px_for`)
     start : the pre-estimate (pattern, colours, initializer's values)
     config : hyper-parameters (see :data:`weavecap.fit.config.PRESETS`)
-    light : the light rig (§6.4)
+    light : the light rig (§6.4): a name, or a :class:`~weavecap.model.scene.LightRig` whose
+        gain (the photo's exposure and white balance) is fitted with the body colours unless
+        ``"light.gain"`` is in ``fixed``
     blur_px : σ (canvas px) of the smoothing the target went through (§4.2's regularization);
         renders are blurred alike before they are compared (:func:`weavecap.model.render.blur`)
     seed : seeds the annealing; the same seed gives the same result
     budget_s : stop after this many seconds (the best state so far is returned)
     fixed : names not to fit: ``"pattern"``, ``"plies"``, ``"fibers"``, radii or continuous keys
+    votes : (n_e, n_a) model-free votes on the target (:func:`weavecap.estimate.orientation.cell_votes`,
+        > 0: weft on top); cells voted at least ``config.vote_lock`` either way take the
+        vote's state and keep it (the pattern sweeps do not flip them)
     radius_mode : how the radii are fitted: ``"search"`` (greedy pattern search every
         ``config.radius_every`` steps), ``"anneal"`` (Metropolis proposals among the discrete
         moves) or ``"gradient"`` (finite-difference gradients inside Adam)
@@ -343,6 +481,17 @@ def fit(target: np.ndarray, start: Fabric, *, config: FitConfig = FitConfig(), l
     t0 = time.perf_counter()
     target = np.asarray(target, dtype=np.float64)
     h, w = target.shape[:2]
+    locked = None
+    if votes is not None and "pattern" not in fixed:
+        from ..estimate.orientation import vote_pattern
+        from ..estimate.sampling import interlaces
+
+        locked = np.abs(np.asarray(votes)) >= config.vote_lock
+        voted = np.where(locked, vote_pattern(votes), start.pattern).astype(np.uint8)
+        if not locked.any() or not (interlaces(voted) or not interlaces(start.pattern)):
+            locked = None
+        elif not np.array_equal(voted, start.pattern):
+            start = start.replace({"pattern": voted})
     fs = build_scene(start, View(tiles=(1, 1), size=max(h, w), spp=config.spp), light=light)
     if fs.frame.shape != (h, w):
         raise ValueError(f"target is {h}x{w} px but a repeat of the {start.shape} pattern renders at "
@@ -369,18 +518,16 @@ def fit(target: np.ndarray, start: Fabric, *, config: FitConfig = FitConfig(), l
     scan_steps = {max(1, int(f * config.iterations)) for f in config.plies_scans} if "plies" not in fixed else set()
     scans: list[dict] = []
     colour_keys = tuple(k for k in BODY_COLOUR_KEYS if k in keys)
-    # m_r only splits the body light between R^B and S^B (an exact null direction with them):
-    # the solve may choose it when it is free along with all four colours
-    split = "specular.coefficient" if colour_keys == BODY_COLOUR_KEYS and "specular.coefficient" in keys else None
     solve_steps = {max(1, int(f * config.iterations)) for f in config.colour_solves} if colour_keys else set()
     solves: list[dict] = []
 
-    best_loss, best_fabric, history, stopped = math.inf, start, [], "iterations"
+    fit_gain = "light.gain" not in fixed
+    best_loss, best_fabric, best_rig, history, stopped = math.inf, start, fs.rig, [], "iterations"
     step = 0
     for step in range(1, config.iterations + 1):
         loss, grads, _ = mse_and_gradients(fs, target, keys, spp=config.spp, blur_px=blur_px)
         if loss < best_loss:
-            best_loss, best_fabric = loss, fs.to_fabric()
+            best_loss, best_fabric, best_rig = loss, fs.to_fabric(), fs.rig
         history.append(loss)
         raw = vec.raw(unit.detach().numpy())
         _, g_barrier = barrier(raw, vec.lo, vec.hi, config.barrier_lambda)
@@ -393,15 +540,19 @@ def fit(target: np.ndarray, start: Fabric, *, config: FitConfig = FitConfig(), l
         if step % config.anneal_every == 0:
             annealer.step(measure)
         if step in sweep_steps:
-            sweeps.append(_pattern_sweep(fs, target, light=light, spp=config.spp, blur_px=blur_px))
+            sweeps.append(_pattern_sweep(fs, target, spp=config.spp, blur_px=blur_px, locked=locked))
         if step in scan_steps:
             scans.append(scan_plies(fs, measure))
+            if len(scans) == 1 and scans[0]["range"] < config.plies_flat:
+                # the photo does not tell the count apart: hold the start's, spend nothing more on it
+                fs.set("plies", start.plies)
+                scan_steps = set()
+                annealer.kinds = [k for k in annealer.kinds if k != "plies"]
         if step in solve_steps:
             solves.append(solve_colours(fs, target, measure, spp=config.spp, blur_px=blur_px, keys=colour_keys,
-                                        split=split))
+                                        gain=fit_gain))
             if solves[-1]["changed"]:  # Adam goes on from the solved colours, its momentum there spent
-                moved = np.concatenate([np.arange(vec.slices[k].start, vec.slices[k].stop)
-                                        for k in colour_keys + ((split,) if split else ())])
+                moved = np.concatenate([np.arange(vec.slices[k].start, vec.slices[k].stop) for k in colour_keys])
                 with torch.no_grad():
                     unit[moved] = torch.from_numpy(np.clip(vec.read(fs.to_fabric()), 0.0, 1.0)[moved])
                     state = adam.state.get(unit, {})
@@ -420,16 +571,29 @@ def fit(target: np.ndarray, start: Fabric, *, config: FitConfig = FitConfig(), l
             break
     final = measure()
     if final < best_loss:
-        best_loss, best_fabric = final, fs.to_fabric()
+        best_loss, best_fabric, best_rig = final, fs.to_fabric(), fs.rig
     moves = {k: {"proposed": v[0], "accepted": v[1]} for k, v in {**annealer.moves, **search.moves}.items()}
+    if config.family_colours and colour_keys:  # end on the photo's own yarn colours
+        fs = build_scene(best_fabric, fs.view, light=best_rig)
+        pinned = bool(solves) and any(solves[-1].get("gain_determined", []))  # the gaps fixed the gain
+        matched = match_family_colours(fs, target, measure, spp=config.spp, blur_px=blur_px,
+                                       gain=fit_gain and not pinned)
+        best_rig = fs.rig
+        moves["family_colours"] = {"renders": matched["renders"], "scale": matched["scale"],
+                                   "loss_rise": round(matched["loss_after"] / max(matched["loss_before"], 1e-12) - 1, 4)}
+        best_loss, best_fabric = matched["loss_after"], fs.to_fabric()
     if sweeps:
         moves["pattern"] = {"sweeps": len(sweeps), "cells_changed": sum(s["changed"] for s in sweeps),
-                            "renders": sum(s["renders"] for s in sweeps)}
+                            "renders": sum(s["renders"] for s in sweeps),
+                            "cells_locked_by_votes": int(locked.sum()) if locked is not None else 0}
     if solves:
         moves["colour_solve"] = {"solves": len(solves), "changed": sum(s["changed"] for s in solves),
                                  "renders": sum(s["renders"] for s in solves)}
+        if fit_gain:
+            moves["colour_solve"]["gain_determined"] = solves[-1]["gain_determined"]
     if scans:
         moves["plies_scan"] = {"scans": len(scans), "changed": sum(s["changed"] for s in scans),
-                               "renders": sum(s["renders"] for s in scans)}
+                               "renders": sum(s["renders"] for s in scans),
+                               "loss_range": round(scans[0]["range"], 4), "flat": scans[0]["range"] < config.plies_flat}
     return FitResult(fabric=best_fabric, loss=best_loss, history=history, iterations=step,
-                     seconds=time.perf_counter() - t0, stopped=stopped, moves=moves)
+                     seconds=time.perf_counter() - t0, stopped=stopped, moves=moves, rig=best_rig)

@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .. import params as wparams
+from ..model.scene import LightRig
 from .config import FitConfig
 from .target import dual, mean_repeat, photo_blur, register_cells, shifted
 
@@ -45,6 +46,20 @@ class RegisteredFit:
     blur_px: float
     notes: dict = field(default_factory=dict)
 
+    def agreement(self) -> float:
+        """How well the fitted pattern agrees with the model-free votes of this round's own
+        target (:func:`weavecap.estimate.orientation.agreement`; 0.5: the votes say nothing)."""
+        from ..estimate.orientation import agreement, cell_votes
+
+        if self.target is None:
+            return 0.5
+        return agreement(self.result.fabric.pattern, cell_votes(self.target, self.result.fabric.shape))
+
+    @property
+    def rig(self) -> LightRig:
+        """The light rig with the gain fitted to the photo (its exposure and white balance)."""
+        return self.result.rig
+
 
 def _registered_target(prepared, cells, model: np.ndarray, c: int):
     """The cells registered on ``model`` (a render of one repeat as photographed, ``c`` px per
@@ -55,20 +70,23 @@ def _registered_target(prepared, cells, model: np.ndarray, c: int):
     return cells, shift, target
 
 
-def _fit_round(prepared, cells, fabric: wparams.Fabric, options: CaptureOptions, config: FitConfig, *, c: int,
+def _fit_round(prepared, cells, fabric: wparams.Fabric, rig: LightRig, config: FitConfig, *, c: int,
                fixed: frozenset[str], seed: int, budget_s: float | None) -> RegisteredFit:
-    """Register ``cells`` on a render of ``fabric``, extract the photo's median repeat there,
-    measure the blur, and fit ``fabric`` to it. One render serves all three."""
+    """Register ``cells`` on a render of ``fabric`` under ``rig``, extract the photo's median
+    repeat there, measure the blur, and fit ``fabric`` (and the rig's gain) to it. One render
+    serves all three."""
     from ..estimate.forward import BLUR_CELLS, RepeatRenderer
     from .joint import fit
     from ..model.render import as_photographed, white_level
 
-    image = RepeatRenderer(fabric, cell_px=c, light=options.light, spp=config.spp, blur_cells=0.0).render()
+    image = RepeatRenderer(fabric, cell_px=c, light=rig, spp=config.spp, blur_cells=0.0).render()
     model = as_photographed(image, BLUR_CELLS * c, white_level(prepared.rectification.image))
+    from ..estimate.orientation import cell_votes
+
     cells, shift, target = _registered_target(prepared, cells, model, c)
     blur_px, _ = photo_blur(image, target, c)
-    result = fit(target, fabric, config=config, light=options.light, seed=seed, budget_s=budget_s, fixed=fixed,
-                 blur_px=blur_px)
+    result = fit(target, fabric, config=config, light=rig, seed=seed, budget_s=budget_s, fixed=fixed,
+                 blur_px=blur_px, votes=cell_votes(target, fabric.shape))
     return RegisteredFit(result=result, target=target, cells=cells, blur_px=blur_px,
                          notes={"cell_shift": [round(v, 3) for v in shift]})
 
@@ -81,7 +99,7 @@ def is_named_weave(pattern: np.ndarray) -> bool:
     return not weave_name(pattern).startswith("custom")
 
 
-def best_named_weave(prepared, cells, start: wparams.Fabric, options: CaptureOptions, *, c: int,
+def best_named_weave(prepared, cells, start: wparams.Fabric, rig: LightRig, *, c: int,
                      tolerance: float = 0.0) -> np.ndarray | None:
     """The named weave (:func:`weavecap.estimate.sampling.regular_weaves`) of ``start``'s repeat
     shape that explains the photo best with ``start``'s other parameters, if it explains it
@@ -102,7 +120,7 @@ def best_named_weave(prepared, cells, start: wparams.Fabric, options: CaptureOpt
     weaves = [p for p in regular_weaves(start.shape) if not equal_up_to_shift(p, start.pattern)]
     if not weaves:
         return None
-    rr = RepeatRenderer(start, cell_px=c, light=options.light, white=white_level(prepared.rectification.image))
+    rr = RepeatRenderer(start, cell_px=c, light=rig, white=white_level(prepared.rectification.image))
 
     def score(pattern: np.ndarray) -> float:
         rr.set_pattern(pattern)
@@ -116,8 +134,42 @@ def best_named_weave(prepared, cells, start: wparams.Fabric, options: CaptureOpt
     return weaves[k] if scores[k] < own * (1.0 + tolerance) else None
 
 
+def photo_votes(prepared, cells, fabric: wparams.Fabric, rig: LightRig, *, c: int) -> np.ndarray:
+    """The model-free votes (:func:`weavecap.estimate.orientation.cell_votes`) of the photo's
+    median repeat, registered on a render of ``fabric`` (so that its cells run from gap to gap
+    and its pattern's phase is ``fabric``'s): (n_e, n_a), > 0 where the weft is on top."""
+    from ..estimate.forward import BLUR_CELLS, RepeatRenderer
+    from ..estimate.orientation import cell_votes
+    from ..model.render import white_level
+
+    model = RepeatRenderer(fabric, cell_px=c, light=rig, blur_cells=BLUR_CELLS,
+                           white=white_level(prepared.rectification.image)).render()
+    _, _, target = _registered_target(prepared, cells, model, c)
+    return cell_votes(target, fabric.shape)
+
+
+def same_within_noise(a: RegisteredFit, b: RegisteredFit, *, spp: int, z: float = 2.0) -> bool:
+    """Whether two fits explain the photo equally well within its noise: the per-cell errors of
+    both renders against ``a``'s target, paired, differ in mean by less than ``z`` standard
+    errors of that mean (:func:`weavecap.estimate.cells.cell_errors`)."""
+    from ..estimate.cells import cell_errors
+    from ..model.render import as_photographed, render_numpy, white_level
+    from ..model.scene import View, build_scene
+
+    target = a.target
+    errs = []
+    for fit in (a, b):
+        fs = build_scene(fit.result.fabric, View(tiles=(1, 1), size=max(target.shape[:2]), spp=spp), light=fit.rig)
+        errs.append(cell_errors(as_photographed(render_numpy(fs), fit.blur_px, white_level(target)), target,
+                                fit.result.fabric.shape).ravel())
+    d = errs[0] - errs[1]
+    if d.size < 2:
+        return bool(abs(d.mean()) <= 0.05 * errs[0].mean())
+    return bool(abs(d.mean()) <= z * d.std(ddof=1) / np.sqrt(d.size))
+
+
 def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptions, *, c: int,
-                   fixed: frozenset[str], explore_patterns: bool) -> RegisteredFit:
+                   fixed: frozenset[str], explore_patterns: bool, rig: LightRig | None = None) -> RegisteredFit:
     """The joint fit (§6), alternating with the registration of the photo's cells.
 
     The target is the photo's median repeat on cells registered against a render of the
@@ -143,16 +195,32 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
     tried; fitted, its loss was 0.0056 against 0.0133 (18.7 → 22.5 dB). Returns the best
     round, with ``cells`` in the rectified photo's
     pixels.
+
+    ``rig`` is the light rig to start from (default: ``options.light``'s, at unit gain); the
+    gain it carries (the photo's exposure and white balance) is fitted along (unless
+    ``"light.gain"`` is in ``fixed``), and each round starts from the last one's.
     """
+    from ..model.scene import light_rig
+
+    rig = rig or light_rig("both" if options.light == "auto" else options.light)
     config = options.config
     rounds = max(1, config.registration_rounds)
     per_round = config.with_(iterations=max(1, config.iterations // rounds))
     t0 = time.perf_counter()
     starts = {"pre_estimate": start, "dual": dual(start)} if explore_patterns else {"pre_estimate": start}
+    votes = None
     if explore_patterns:
-        named = best_named_weave(prepared, cells, start, options, c=c)
+        from ..estimate.orientation import vote_pattern
+        from ..estimate.sampling import interlaces
+        from ..estimate.weave_name import equal_up_to_shift
+
+        named = best_named_weave(prepared, cells, start, rig, c=c)
         if named is not None:
             starts["named_weave"] = start.replace({"pattern": named})
+        votes = photo_votes(prepared, cells, start, rig, c=c)
+        voted = vote_pattern(votes)
+        if interlaces(voted) and not any(equal_up_to_shift(voted, f.pattern) for f in starts.values()):
+            starts["votes"] = start.replace({"pattern": voted})
     runs = rounds + len(starts)  # and one more round for a named weave
 
     def budget(done: int) -> float | None:
@@ -167,19 +235,28 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
     for k, (name, fabric) in enumerate(starts.items()):
         if firsts and spent():
             break
-        firsts[name] = _fit_round(prepared, cells, fabric, options, per_round, c=c, fixed=fixed, seed=options.seed,
+        firsts[name] = _fit_round(prepared, cells, fabric, rig, per_round, c=c, fixed=fixed, seed=options.seed,
                                   budget_s=budget(k))
     chosen = min(firsts, key=lambda name: firsts[name].result.loss)
     best = firsts[chosen]
+    tied = []
+    if votes is not None and np.any(votes):  # starts the loss cannot tell apart: the votes decide
+        tied = [name for name in firsts if name != chosen and same_within_noise(best, firsts[name], spp=config.spp)]
+        backed = max([chosen] + tied, key=lambda name: firsts[name].agreement())
+        chosen, best = backed, firsts[backed]
     notes = {"cell_shift": [best.notes["cell_shift"]]}
     if explore_patterns:
-        notes["start"] = {"chosen": chosen, **{name: round(r.result.loss, 6) for name, r in firsts.items()}}
+        notes["start"] = {"chosen": chosen, **{name: round(r.result.loss, 6) for name, r in firsts.items()},
+                          "within_noise": tied}
+    if votes is not None:
+        notes["votes"] = {"pattern": vote_pattern(votes).astype(int).tolist(),
+                          "cells": [[round(float(v), 3) for v in row] for row in votes]}
     history = list(best.result.history)
     k, gain = 1, math.inf
     while k < rounds or (k < rounds + config.extra_rounds and gain > config.extra_round_gain):
         if spent():
             break
-        last = _fit_round(prepared, best.cells, best.result.fabric, options, per_round, c=c, fixed=fixed,
+        last = _fit_round(prepared, best.cells, best.result.fabric, best.rig, per_round, c=c, fixed=fixed,
                           seed=options.seed + k, budget_s=budget(len(starts) + k - 1))
         notes["cell_shift"].append(last.notes["cell_shift"])
         history += last.result.history
@@ -188,14 +265,19 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
             best = last
         k += 1
     if explore_patterns and not spent() and not is_named_weave(best.result.fabric.pattern):
-        named = best_named_weave(prepared, best.cells, best.result.fabric, options, c=c, tolerance=math.inf)
+        named = best_named_weave(prepared, best.cells, best.result.fabric, best.rig, c=c, tolerance=math.inf)
         if named is not None:
-            last = _fit_round(prepared, best.cells, best.result.fabric.replace({"pattern": named}), options, per_round,
+            last = _fit_round(prepared, best.cells, best.result.fabric.replace({"pattern": named}), best.rig, per_round,
                               c=c, fixed=fixed | {"pattern"}, seed=options.seed + k, budget_s=budget(runs - 1))
             history += last.result.history
-            taken = last.result.loss <= best.result.loss * (1.0 + config.named_weave_tolerance)
+            # within the tolerance a named weave is likelier a priori — unless the photo's own
+            # votes back the custom pattern better (a random weave a cell or two off a twill)
+            votes_named, votes_custom = last.agreement(), best.agreement()
+            taken = (last.result.loss <= best.result.loss * (1.0 + config.named_weave_tolerance)
+                     and votes_named >= votes_custom - config.vote_margin)
             notes["named_weave"] = {"pattern": named.astype(int).tolist(), "loss": round(last.result.loss, 6),
-                                    "fitted_loss": round(best.result.loss, 6), "taken": taken}
+                                    "fitted_loss": round(best.result.loss, 6), "taken": taken,
+                                    "votes_agree": [round(votes_named, 3), round(votes_custom, 3)]}
             if taken:
                 best = last
     result = dataclasses.replace(best.result, history=history, iterations=len(history),

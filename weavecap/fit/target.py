@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..estimate.cells import CellGrid, cell_canvas
+from ..estimate.cells import CellGrid, cell_canvas, gap_phase
 from ..params import Fabric
 
 DRIFT_MAX_CELLS = 0.5  # a repeat's offset beyond this (cells) is a mismatch, not drift
@@ -104,9 +104,17 @@ def register_cells(image: np.ndarray, cells: CellGrid, model: np.ndarray, c: int
     (sub-pixel), whole cells included, so the fabric's pattern stays right for the moved
     cells. Returns the moved CellGrid and the shift in cells (dy, dx).
     """
-    photo = cell_canvas(image, cells, c).mean(axis=2)
+    canvas = cell_canvas(image, cells, c)
+    photo = canvas.mean(axis=2)
     model = np.asarray(model).mean(axis=2)
     dy, dx = correlation_shift(photo, model) / c
+    # the sub-cell part from the gap lattices alone: a model unlike the photo (other shading,
+    # colours not yet fitted) can correlate best half a cell off, and then no values fit;
+    # the photo's gaps against the model's (the same estimator on both cancels its bias)
+    (py, px), (my, mx) = gap_phase(canvas, cells.shape), gap_phase(np.asarray(model)[..., None], cells.shape)
+    sy, sx = ((py - my) / c + 0.5) % 1.0 - 0.5, ((px - mx) / c + 0.5) % 1.0 - 0.5
+    dy = float(np.round(dy - sy) + sy)
+    dx = float(np.round(dx - sx) + sx)
     rows = cells.rows + dy * np.diff(cells.rows).mean()
     cols = cells.cols + dx * np.diff(cells.cols).mean()
     # back by whole repeats to start inside the image: the pattern's phase is the same there,
@@ -215,20 +223,52 @@ def dual(fabric: Fabric) -> Fabric:
     return fabric.replace({**swap, "pattern": 1 - fabric.pattern})
 
 
+def sharpness_blur(image: np.ndarray, target: np.ndarray, c: int) -> float:
+    """The most blur (σ, canvas px) the photo shows relative to ``image``, an unblurred render
+    of its repeat: the σ at which the render's gradient energy falls to the photo's
+    (:func:`weavecap.fit.fidelity.gradient_energy`; bisection over [0, c/4]); 0 when the
+    render is no sharper than the photo even unblurred. Edges dominate the gradient energy,
+    so this is the photo's edge spread measured against the model's own edges; noise and
+    fibre hair in the photo only lower it."""
+    from ..model.render import as_photographed, white_level
+    from .fidelity import gradient_energy
+
+    white = white_level(target)
+    goal = gradient_energy(target)
+
+    def energy(s: float) -> float:
+        return gradient_energy(as_photographed(image, s, white))
+
+    lo, hi = 0.0, c / 4
+    if energy(lo) <= goal:
+        return 0.0
+    if energy(hi) >= goal:
+        return hi
+    for _ in range(12):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if energy(mid) > goal else (lo, mid)
+    return 0.5 * (lo + hi)
+
+
 def photo_blur(image: np.ndarray, target: np.ndarray, c: int) -> tuple[float, float]:
     """σ (canvas px) of the Gaussian that makes ``image``, an unblurred render of one repeat
-    at ``c`` px per cell (same shape as ``target``), most like ``target``, and the MSE it
-    leaves.
+    at ``c`` px per cell (same shape as ``target``), most like ``target`` without blurring it
+    more than the photo is blurred, and the MSE it leaves.
 
     The photo is smoothed by resampling to the canvas, by the median over repeats and by the
     camera itself; how much in all varies from photo to photo, and the MSE is very sensitive to
     it (on a 16-px canvas: 0.0033 at σ = 1 px, 0.0025 at 1.5, 0.0053 at 2). It is measured by a
-    bounded 1-D search over [0, c/4].
+    bounded 1-D search over [0, c/4] — and capped at :func:`sharpness_blur`: where the model
+    cannot match the photo (another shading, colours not yet fitted), the MSE's best blur grows
+    to average the mismatch away (issue 11: 2.4–6.0 px on cells of 17–24 px, renders a
+    sixth as sharp as their photos), and a fit through that blur learns a haze.
     """
     from scipy.optimize import minimize_scalar
 
     from ..model.render import blurred_mse
 
+    cap = sharpness_blur(image, target, c)
     best = minimize_scalar(lambda s: blurred_mse(image, target, s), bounds=(0.0, c / 4), method="bounded",
                            options={"xatol": 0.02})
-    return float(best.x), float(best.fun)
+    sigma = min(float(best.x), cap)
+    return sigma, blurred_mse(image, target, sigma)

@@ -66,7 +66,7 @@ def correlation_area(residual: np.ndarray, radius: int) -> float:
 
 
 def standard_errors(fabric: Fabric, target: np.ndarray, *, blur_px: float, light: str = "both",
-                    spp: int = 4) -> dict[str, float]:
+                    spp: int = 4, fixed: frozenset = frozenset()) -> dict[str, float]:
     """Standard error of every continuous parameter of ``fabric`` fitted to ``target``.
 
     Parameters
@@ -74,6 +74,7 @@ def standard_errors(fabric: Fabric, target: np.ndarray, *, blur_px: float, light
     fabric : the fitted fabric; target : (n_e*c, n_a*c, 3) the photo's median repeat (linear RGB)
     blur_px : σ of the blur the renders are compared with (canvas px); light : the rig; spp :
         samples per pixel (the fit's)
+    fixed : keys the fit holds fixed: they are no unknowns here (and get no error)
 
     Returns
     -------
@@ -92,7 +93,7 @@ def standard_errors(fabric: Fabric, target: np.ndarray, *, blur_px: float, light
     base = shown()
     columns, owners = [], []
     for key in CONTINUOUS_KEYS:
-        if key in fs.textures:
+        if key in fs.textures or key in fixed:
             continue
         lo, hi = FIT_RANGES[key]
         value = np.atleast_1d(np.asarray(fabric.get(key), dtype=np.float64))

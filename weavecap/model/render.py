@@ -189,7 +189,9 @@ def shade(fs: FabricScene, g: GBuffer):
         f = _bysdf.eval_bysdf(p, body_r, body_s, g.uv, g.wv, wl)
         result += dr.select(lit, light.irradiance * f, 0.0)
     result += fs.rig.ambient * g.ao * _bysdf.albedo_bysdf(p, body_r, body_s, g.uv, g.wv.z)
-    return dr.select(g.hit, result, mi.Color3f(fs.rig.backdrop))
+    gain = mi.Color3f(*fs.rig.gain)  # the rig as the camera recorded it (exposure × white balance)
+    dr.make_opaque(gain)  # a kernel input: a new gain compiles nothing
+    return dr.select(g.hit, result, mi.Color3f(fs.rig.backdrop)) * gain
 
 
 def gbuffer(fs: FabricScene, *, spp: int, seed: int) -> GBuffer:

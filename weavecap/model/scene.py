@@ -10,7 +10,7 @@ new pattern or radius rebuilds the meshes (a few ms).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -54,12 +54,23 @@ class LightRig:
     through the gaps between yarns (a lit panel behind the fabric, or the room).
 
     The camera looks down -z, so "front" lights have z > 0 and "back" lights z < 0.
+    ``gain`` (RGB) is the rig's intensity and colour as the camera recorded them — exposure
+    times white balance, a property of the photo, not of the fabric: every light, the ambient
+    and the backdrop are scaled by it, so a render is ``gain`` times the render at (1, 1, 1).
     """
 
     ambient: float
     lights: tuple[Light, ...]
     backdrop: float
     name: str = "custom"
+    gain: tuple[float, float, float] = (1.0, 1.0, 1.0)
+
+    def with_gain(self, gain) -> "LightRig":
+        """The same rig recorded with another ``gain`` (RGB, or one number for all channels)."""
+        g = np.broadcast_to(np.asarray(gain, dtype=np.float64), (3,))
+        if not np.all(np.isfinite(g)) or np.any(g <= 0):
+            raise InputError(f"light gain {g.tolist()} must be three positive finite numbers")
+        return replace(self, gain=tuple(float(v) for v in g))
 
     @property
     def lit_from_back(self) -> bool:

@@ -119,7 +119,8 @@ def mode(name: str) -> Mode:
 def mode_names() -> list[str]:
     """Every registered mode, built-ins first."""
     _load_plugins()
-    return sorted(MODES, key=lambda n: (n not in ("reference", "direct"), n))
+    built_in = [n for n in ("reference", "direct") if n in MODES]
+    return built_in + sorted(n for n in MODES if n not in built_in)
 
 
 def fold_term(choice: str, chosen: Mode, mesh) -> FoldTerm | None:

@@ -116,26 +116,28 @@ def texels_for_view(pitch_m: float, camera: Camera) -> int:
     return int(min(MAX_TEXELS, max(MIN_TEXELS, t)))
 
 
-def render_fabric(fabric: Fabric, mesh: RenderMesh, options: RenderOptions, *, progress=None) -> RenderResult:
-    """Render ``fabric`` on ``mesh``.
+@dataclass
+class PreparedRender:
+    """A scene ready to render: the Mitsuba scene and what went into it (see
+    :func:`prepare_render`); ``info`` and ``timings`` are completed by :func:`render_fabric`."""
 
-    Parameters
-    ----------
-    fabric : the captured fabric
-    mesh : from :func:`weavecap.render.mesh.load_mesh` (fabric coordinates in metres)
-    options : RenderOptions
-    progress : ``(done, total)`` callable, called after each pass of samples
+    scene: object
+    camera: Camera
+    lighting: Lighting
+    maps: SurfaceMaps
+    fold_term: object
+    info: dict
+    timings: dict
 
-    Returns
-    -------
-    RenderResult
-    """
+
+def prepare_render(fabric: Fabric, mesh: RenderMesh, options: RenderOptions) -> PreparedRender:
+    """Everything before the samples: camera, lights, the fabric's bake at the view's texel
+    size, its placement at the physical pitch, the mode's BSDF and integrator, the scene."""
     from ..backend import mitsuba
 
     mi = mitsuba()
     timings: dict[str, float] = {}
     notes: list[str] = []
-    start = time.perf_counter()
     chosen = _modes.mode(options.mode)
     camera = frame_camera(mesh.bounds, view=options.view, kind=options.camera, fov_deg=options.fov_deg,
                           margin=options.margin, size=options.size)
@@ -165,16 +167,6 @@ def render_fabric(fabric: Fabric, mesh: RenderMesh, options: RenderOptions, *, p
         scene_dict["ground"] = ground(mesh.bounds)
     scene = mi.load_dict(scene_dict)
     timings["scene"] = time.perf_counter() - t
-
-    t = time.perf_counter()
-    image = render_passes(scene, options.spp, options.seed, progress=progress)
-    timings["render"] = time.perf_counter() - t
-    if term is not None:
-        t = time.perf_counter()
-        image = np.asarray(term.apply(RenderContext(scene, mesh, fabric, maps, camera, lights, options, image)),
-                           dtype=np.float32)
-        timings["fold"] = time.perf_counter() - t
-    timings["total"] = time.perf_counter() - start
     info = {
         "mode": chosen.name, "spp": options.spp, "size": list(options.size), "camera": options.camera,
         "view": list(options.view), "light": lights.name, "max_depth": options.max_depth if chosen.name != "direct" else 2,
@@ -185,7 +177,38 @@ def render_fabric(fabric: Fabric, mesh: RenderMesh, options: RenderOptions, *, p
         "noise": noise is not None, "fold": term.name if term is not None else None, "seed": options.seed,
         "timings": timings, "notes": notes,
     }
-    return RenderResult(image=image, info=info)
+    return PreparedRender(scene=scene, camera=camera, lighting=lights, maps=maps, fold_term=term, info=info,
+                          timings=timings)
+
+
+def render_fabric(fabric: Fabric, mesh: RenderMesh, options: RenderOptions, *, progress=None) -> RenderResult:
+    """Render ``fabric`` on ``mesh``.
+
+    Parameters
+    ----------
+    fabric : the captured fabric
+    mesh : from :func:`weavecap.render.mesh.load_mesh` (fabric coordinates in metres)
+    options : RenderOptions
+    progress : ``(done, total)`` callable, called after each pass of samples
+
+    Returns
+    -------
+    RenderResult
+    """
+    start = time.perf_counter()
+    prepared = prepare_render(fabric, mesh, options)
+    timings = prepared.timings
+    t = time.perf_counter()
+    image = render_passes(prepared.scene, options.spp, options.seed, progress=progress)
+    timings["render"] = time.perf_counter() - t
+    if prepared.fold_term is not None:
+        t = time.perf_counter()
+        context = RenderContext(prepared.scene, mesh, fabric, prepared.maps, prepared.camera, prepared.lighting,
+                                options, image)
+        image = np.asarray(prepared.fold_term.apply(context), dtype=np.float32)
+        timings["fold"] = time.perf_counter() - t
+    timings["total"] = time.perf_counter() - start
+    return RenderResult(image=image, info=prepared.info)
 
 
 def render_passes(scene, spp: int, seed: int, *, progress=None) -> np.ndarray:

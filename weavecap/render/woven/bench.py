@@ -343,7 +343,7 @@ def encoder_time(fabric: Fabric, maps, *, calls: int = 5) -> float:
     return statistics.median(times[1:])
 
 
-def run(*, views=VIEWS, size: int = SIZE, truth_spp: int = TRUTH_SPP, progress=None) -> dict:
+def run(*, views=VIEWS, size: int = SIZE, truth_spp: int = TRUTH_SPP, fabrics=None, progress=None) -> dict:
     """The whole section: per fabric and view the quality figures, the criteria of issue 13,
     the frame times, the encoder time, the weights' size and the furnace test. Images are
     returned under ``"images"`` (fabric name → view name → dict)."""
@@ -352,7 +352,7 @@ def run(*, views=VIEWS, size: int = SIZE, truth_spp: int = TRUTH_SPP, progress=N
 
     say = progress or (lambda message: None)
     rows, images, encoders, furnaces, costs = [], {}, [], [], {}
-    fabrics = bench_fabrics()
+    fabrics = bench_fabrics() if fabrics is None else fabrics
     for name, seen, fabric in fabrics:
         maps = bake(fabric, texels_per_yarn=16)
         encoders.append(encoder_time(fabric, maps))
@@ -456,3 +456,49 @@ def write(results: dict, folder) -> list:
             picture(results["images"], name).save(tmp, format="PNG")
         written.append(path)
     return written
+
+
+QUICK_VIEWS = (VIEWS[0], VIEWS[2], VIEWS[-1])
+
+
+def section_run(quick: bool = False, progress=None) -> dict:
+    """The ``woven`` section of :mod:`weavecap.render.bench`: :func:`run` without the images
+    (``quick``: the close, mid and far views of one seen and two unseen fabrics)."""
+    fabrics = bench_fabrics()
+    if quick:
+        fabrics = [fabrics[0], fabrics[3], fabrics[4]]
+    results = run(views=QUICK_VIEWS if quick else VIEWS, fabrics=fabrics, progress=progress)
+    results.pop("images")
+    return results
+
+
+def section_table(results: dict) -> str:
+    return "```\n" + table(results) + "\n```"
+
+
+def _register() -> None:
+    from ..bench import Section, register_section
+
+    register_section(Section("woven", "Woven neural renderer against the direct reference (Chen et al. 2024)",
+                             section_run, section_table))
+
+
+_register()
+
+
+def main(argv: list[str] | None = None) -> None:
+    """``python -m weavecap.render.woven.bench OUT``: the whole section, with its pictures
+    (OUT/woven.json, OUT/woven_<fabric>.png: reference | neural | reference 1 spp | error)."""
+    import sys
+
+    argv = sys.argv[1:] if argv is None else argv
+    if len(argv) != 1:
+        raise SystemExit("usage: python -m weavecap.render.woven.bench OUT")
+    results = run(progress=lambda m: print(m, file=sys.stderr, flush=True))
+    for path in write(results, argv[0]):
+        print(path, file=sys.stderr)
+    print(table(results))
+
+
+if __name__ == "__main__":
+    main()

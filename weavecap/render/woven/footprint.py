@@ -152,11 +152,10 @@ def fabric_to_texel(s: np.ndarray, t: np.ndarray, shape: tuple[int, int]) -> tup
 
 
 def filtered_point(features: list):
-    """The :class:`~weavecap.render.bsdf.SurfacePoint` of a footprint's mean maps, from its
+    """The surface point (:class:`.terms.ValuesPoint`) of a footprint's mean maps, from its
     :data:`FEATURES` (Dr.Jit Floats): coverage, warp share, normal, grooves as means (the
     c-weighted means over c), horizon from its mean and first harmonic, through straight and
     (the same in every azimuth) tilted; gain 1."""
-    from ..bsdf import SurfacePoint
     from . import terms as _terms
 
     mi, dr = _terms._backend()
@@ -171,10 +170,10 @@ def filtered_point(features: list):
                for j in range(k)]
     tilted = dr.clip(f["c_through_tilted"] * inv, 0.0, 1.0)
     through = [dr.clip(f["c_through"] * inv, 0.0, 1.0)] + [tilted] * k
-    return SurfacePoint(coverage=c, warp=dr.clip(f["c_warp"] * inv, 0.0, 1.0), normal=normal,
-                        groove=(dr.clip(f["c_groove_p"] * inv, 0.0, 1.0), dr.clip(f["c_groove_f"] * inv, 0.0, 1.0)),
-                        occlusion=mi.Float(1.0), through=through, horizon=horizon, gain=mi.Float(1.0),
-                        uv=mi.Point2f(0.0, 0.0))
+    return _terms.values_point(coverage=c, warp=dr.clip(f["c_warp"] * inv, 0.0, 1.0), normal=normal,
+                               groove=(dr.clip(f["c_groove_p"] * inv, 0.0, 1.0),
+                                       dr.clip(f["c_groove_f"] * inv, 0.0, 1.0)),
+                               occlusion=mi.Float(1.0), through=through, horizon=horizon, gain=mi.Float(1.0))
 
 
 def baseline_channels(shading, features: list, wi, wo) -> list:

@@ -26,6 +26,7 @@ independent slots, seven are used), so nothing here re-implements a lobe.
 from __future__ import annotations
 
 import dataclasses
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -151,6 +152,29 @@ def split_by_yarn(terms: np.ndarray, warp: np.ndarray) -> np.ndarray:
     return np.stack([terms * w, terms * (1.0 - w)], axis=-1).reshape(terms.shape[:-1] + (2 * len(TERMS),))
 
 
+@dataclass
+class ValuesPoint(SurfacePoint):
+    """A :class:`~weavecap.render.bsdf.SurfacePoint` that holds its visibility values (a
+    texel's, or a footprint's means) instead of reading them from textures."""
+
+    through_values: list = field(default_factory=list)  # 1 + K Floats
+    horizon_values: list = field(default_factory=list)  # K Floats
+
+    def through(self, active=True) -> list:
+        return self.through_values
+
+    def horizon(self, active=True) -> list:
+        return self.horizon_values
+
+
+def values_point(*, coverage, warp, normal, groove, occlusion, through: list, horizon: list, gain) -> ValuesPoint:
+    """A :class:`ValuesPoint` from its values (Dr.Jit Floats; ``normal`` a unit Vector3f)."""
+    mi, _ = _backend()
+    return ValuesPoint(coverage=coverage, warp=warp, normal=normal, groove=groove, occlusion=occlusion, gain=gain,
+                       uv=mi.Point2f(0.0, 0.0), through_0=through[0], textures=[], position=None,
+                       through_values=list(through), horizon_values=list(horizon))
+
+
 def texel_point(maps: SurfaceMaps, side: int, index):
     """The :class:`SurfacePoint` of texels ``index`` (UInt32 into the flattened (H, W) map of
     ``side``): the baked values at the texel centres, no interpolation, gain 1."""
@@ -167,8 +191,7 @@ def texel_point(maps: SurfaceMaps, side: int, index):
     # as SurfaceTextures.lookup rebuilds it: z from x and y, out of the side seen
     normal = mi.Vector3f(nx, ny, dr.sqrt(dr.maximum(1.0 - nx * nx - ny * ny, 1e-4)))
     k = HORIZON_AZIMUTHS
-    return SurfacePoint(coverage=gather(maps.coverage), warp=gather(maps.warp), normal=dr.normalize(normal),
+    return values_point(coverage=gather(maps.coverage), warp=gather(maps.warp), normal=dr.normalize(normal),
                         groove=(gather(maps.grooves[..., 0]), gather(maps.grooves[..., 1])),
                         occlusion=gather(maps.occlusion), through=[gather(maps.through[..., j]) for j in range(1 + k)],
-                        horizon=[gather(maps.horizon[..., j]) for j in range(k)], gain=mi.Float(1.0),
-                        uv=mi.Point2f(0.0, 0.0))
+                        horizon=[gather(maps.horizon[..., j]) for j in range(k)], gain=mi.Float(1.0))
