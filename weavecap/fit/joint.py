@@ -575,13 +575,19 @@ def fit(target: np.ndarray, start: Fabric, *, config: FitConfig = FitConfig(), l
     moves = {k: {"proposed": v[0], "accepted": v[1]} for k, v in {**annealer.moves, **search.moves}.items()}
     if config.family_colours and colour_keys:  # end on the photo's own yarn colours
         fs = build_scene(best_fabric, fs.view, light=best_rig)
+        rig_before_match = best_rig
         pinned = bool(solves) and any(solves[-1].get("gain_determined", []))  # the gaps fixed the gain
         matched = match_family_colours(fs, target, measure, spp=config.spp, blur_px=blur_px,
                                        gain=fit_gain and not pinned)
         best_rig = fs.rig
+        rise = matched["loss_after"] / max(matched["loss_before"], 1e-12) - 1
+        kept = rise <= config.family_colour_tolerance
         moves["family_colours"] = {"renders": matched["renders"], "scale": matched["scale"],
-                                   "loss_rise": round(matched["loss_after"] / max(matched["loss_before"], 1e-12) - 1, 4)}
-        best_loss, best_fabric = matched["loss_after"], fs.to_fabric()
+                                   "loss_rise": round(rise, 4), "kept": kept}
+        if kept:
+            best_loss, best_fabric = matched["loss_after"], fs.to_fabric()
+        else:
+            best_rig = rig_before_match
     if sweeps:
         moves["pattern"] = {"sweeps": len(sweeps), "cells_changed": sum(s["changed"] for s in sweeps),
                             "renders": sum(s["renders"] for s in sweeps),
