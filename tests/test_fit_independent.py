@@ -16,9 +16,11 @@ CASES = {
     "satin5_warp": dict(pattern=hp.satin(5, 3, weft_faced=False), warp_colour=(0.05, 0.45, 0.6),
                         weft_colour=(0.25, 0.22, 0.2), gaps="backlit", cross_section="ellipse", exposure_stops=-0.7,
                         white_balance=(1.1, 1.0, 0.85)),
-    # a 2/1 twill running the other way, dark gaps, over-exposed: direction and face
-    "twill21": dict(pattern=hp.twill(2, 1, -1), warp_colour=(0.6, 0.2, 0.15), weft_colour=(0.7, 0.65, 0.5),
-                    gaps="dark", cross_section="ellipse", exposure_stops=0.6, white_balance=(0.9, 1.0, 1.1)),
+    # a plain weave whose warp and weft are nearly the same colour (only the shading shows the
+    # crossings), dark gaps, over-exposed with a cast
+    "plain": dict(pattern=np.array([[1, 0], [0, 1]], np.uint8), warp_colour=(0.55, 0.3, 0.2),
+                  weft_colour=(0.53, 0.31, 0.21), gaps="dark", cross_section="lens", exposure_stops=0.6,
+                  white_balance=(0.9, 1.0, 1.1)),
 }
 
 
