@@ -37,10 +37,12 @@ class FitConfig:
     plies_flat : when the first scan's loss varies by less than this share of its minimum
         over every count, the photo does not determine the plies: the start's count is held
         and no more steps go to it (issue 5 measured 2–7 % on forward-model renders)
-    colour_solves : fractions of the steps after which the body colours are solved in closed
-        form with everything else fixed (:func:`weavecap.fit.joint.solve_colours`). Once, late
-        in each round: a solve after the first step, on cells not yet registered, set one yarn
-        family black on the bench's plain weave (draft 29.0 → 22.9 dB); at 70% it gives 29.9
+    colour_solves : fractions of the steps after which the body colours and the rig's gain
+        (the photo's exposure and white balance) are solved in closed form with everything
+        else fixed (:func:`weavecap.fit.joint.solve_colours`): right at the start of each
+        round — each round's cells are registered first now (a solve on unregistered cells had
+        set the bench's plain weave's warp black, 29.0 → 22.9 dB) and a photo brighter than
+        the rig's white fabric needs its gain before any step — and late (70%)
     radius_step : first step of the radius search (and size of a radius proposal when radii
         are annealed), Algorithm 1 units; radius_min_step: the search stops below it
     radius_every : one radius search round every this many gradient steps
