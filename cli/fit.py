@@ -18,7 +18,7 @@ from .options import force_option, quiet_option, seed_option, verbose_option
               help="Speed against accuracy (docs/capture.md's fit bench).")
 @click.option("--light", type=click.Choice(["auto", "both", "front", "back"]), default="auto", show_default=True,
               help="How the photo was lit: room light (front, back and sides), front-only or back-only; auto "
-                   "decides from the photo (dark gaps: front, bright gaps: both).")
+                   "takes the one of room light and front-only that explains the photo better.")
 @click.option("--budget", "budget_s", type=click.FloatRange(min=1), default=None,
               help="Stop each photo's fit after this many seconds (the best result so far is kept).")
 @click.option("--jobs", type=click.IntRange(min=1, max=64), default=1, show_default=True,
