@@ -39,7 +39,9 @@ def bench(quick, do_model, do_fit, do_render, sets, presets, out):
     each preset and compared with the truth, from two sets: 8 renders of the forward model
     itself (scored on the pattern, PSNR and every parameter) and 18 photos of an independent
     generator that shares no code with it (scored on the pattern, face and direction included,
-    and on fidelity: sharpness, each yarn family's colour difference, structure). Writes
+    and on fidelity: sharpness, each yarn family's colour difference, structure), plus an
+    exposure check (two of them 1 stop darker, 1 stop brighter and with a colour cast: how far
+    the fitted colours move). Writes
     OUT/results.json, each fit's outputs under OUT/fits/ and OUT/speed_vs_error.png. The own
     set at all presets takes about 15 minutes on a 2-core machine, the independent set at
     normal about as long.
@@ -79,10 +81,17 @@ def bench(quick, do_model, do_fit, do_render, sets, presets, out):
         photo_sets = fit_bench.SETS if sets == "both" else (sets,)
         rows = fit_bench.run(presets, quick=quick, folder=out, sets=photo_sets, progress=say)
         summary = fit_bench.summary(rows)
-        atomic_write_text(out / "results.json", json.dumps({"photos": rows, "summary": summary}, indent=1) + "\n")
+        exposure = []
+        if "independent" in photo_sets and not quick:
+            for preset in presets:
+                exposure += fit_bench.exposure_invariance(preset, out / "exposure", progress=say)
+        atomic_write_text(out / "results.json", json.dumps({"photos": rows, "summary": summary,
+                                                            "exposure": exposure}, indent=1) + "\n")
         for name, make in (("own", fit_bench.table), ("independent", fit_bench.independent_table)):
             if name in photo_sets:
                 click.echo(f"fit bench, {name} photos:\n{make(summary)}\n")
+        if exposure:
+            click.echo(f"exposure invariance (independent photos):\n{fit_bench.exposure_table(exposure)}\n")
         if "own" in photo_sets:
             fit_bench.plot(summary, out / "speed_vs_error.png")
         click.echo(f"(plot: {out / 'speed_vs_error.png'}; details: {out / 'results.json'}; fits: {out / 'fits'})",

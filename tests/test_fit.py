@@ -175,7 +175,8 @@ def test_colour_solve_keeps_the_colours_when_it_cannot_do_better():
 
 def test_the_fit_solves_colours_that_gradient_steps_left_black():
     truth = params.load(FIXTURES / "twill_2_1.json")
-    config = PRESETS["draft"].with_(iterations=4, colour_solves=(0.25,), pattern_moves=False, plies_scans=())
+    config = PRESETS["draft"].with_(iterations=4, colour_solves=(0.25,), pattern_moves=False, plies_scans=(),
+                                    family_colours=False)
     target = canvas_of(truth, cell_px_for(config, truth.shape))
     black = truth.replace({k: (0.0, 0.0, 0.0) for k in ("warp.body_reflection", "weft.body_reflection")})
     solved = fit(target, black, config=config, fixed=frozenset({"pattern"}))

@@ -22,7 +22,7 @@ from . import params as wparams
 from .errors import PhotoError
 from .fit.config import PRESETS, FitConfig, cell_px_for
 from .fit.fidelity import captioned, fidelity
-from .fit.target import align_cells, mean_repeat, repeat_cells, shifted
+from .fit.target import align_cells, repeat_cells
 from .io import atomic_write_text
 
 REPORT_FORMAT = "weavecap.report/1"
@@ -36,8 +36,8 @@ class CaptureOptions:
     Attributes
     ----------
     quality : preset name of :data:`weavecap.fit.config.PRESETS`
-    light : the light rig the photo was taken under (§6.4), or ``auto``: decided from the
-        photo's gaps (:func:`weavecap.fit.modelled.choose_rig`)
+    light : the light rig the photo was taken under (§6.4), or ``auto``: the rig that explains
+        the photo best (:func:`weavecap.fit.rounds.choose_rig`: both or front)
     seed : seeds every random choice; the same seed gives the same result
     budget_s : wall-time limit of the joint fit, seconds (None: the preset's iterations)
     start_from : a fabric to start the fit from instead of the pre-estimate (warm start)
@@ -137,7 +137,7 @@ def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), 
     from .estimate.weave_name import weave_name
     from .fit.confidence import pattern_confidence
     from .fit import modelled
-    from .fit.rounds import fit_registered
+    from .fit.rounds import choose_rig, fit_registered
     from .fit.uncertainty import DETERMINED_SE, standard_errors
     from .model.render import as_photographed, render_numpy, white_level
     from .model.scene import View, build_scene, light_rig
@@ -182,10 +182,7 @@ def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), 
 
     config = options.config
     c = cell_px_for(config, shape)
-    light, light_reason = options.light, "given"
-    if light == "auto":
-        light, light_reason = modelled.choose_rig(
-            mean_repeat(prepared.rectification.image, shifted(cells, prepared.regularized.box), c), shape)
+    light, light_reason = ("both", "auto") if options.light == "auto" else (options.light, "given")
 
     say(f"pre-estimating a {shape[0]}x{shape[1]} repeat (pattern, colours, parameters)")
     t = time.perf_counter()
@@ -203,6 +200,10 @@ def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), 
         start = start.replace({"pattern": options.pattern})
     timings["pre_estimate"] = time.perf_counter() - t
 
+    if options.light == "auto":
+        light, losses = choose_rig(prepared, cells, start, c=c, spp=config.spp)
+        light_reason = "the rig whose render, colours and gain solved, explains the photo best: " + ", ".join(
+            f"{k} {v:.4g}" for k, v in losses.items())
     rig = light_rig(light)
     t = time.perf_counter()
     # what this photo can show: values no render of its repeat sees are held, not fitted

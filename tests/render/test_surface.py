@@ -163,3 +163,20 @@ def test_visibility_agrees_with_the_forward_models_rays(name, light, minimum):
     covered = np.array(point.coverage).reshape(h, w) > 0.5
     agree = np.mean((visible & covered)[hit] == lit[hit])
     assert agree >= minimum, agree
+
+
+def test_noise_map_carries_the_params_noise_as_a_periodic_gain():
+    """A fabric with §6.3 noise: a gain tile of mean 1 whose contrast is the noise's standard
+    deviation over the fabric's measured brightness; none without noise."""
+    fabric = params.load(FIXTURES / "twill_2_1.json")
+    assert surface.noise_map(fabric) is None
+    variance = 0.002
+    noisy = params.from_dict({**params.to_dict(fabric), "noise": {
+        "gaussians": [{"weight": variance, "mean": [0.0, 0.0], "cov": [[0.5, 0.0], [0.0, 0.5]]}]}})
+    noise = surface.noise_map(noisy, seed=1)
+    n_e, n_a = fabric.shape
+    t = surface.NOISE_TEXELS_PER_YARN
+    assert noise.gain.shape == (n_e * noise.repeats * t, n_a * noise.repeats * t)
+    assert noise.gain.mean() == pytest.approx(1.0, abs=0.01)
+    assert 0.3 < noise.gain.std() * noise.level / np.sqrt(variance) <= 1.01  # the tile holds up to Nyquist
+    assert np.array_equal(noise.gain, surface.noise_map(noisy, seed=1).gain)

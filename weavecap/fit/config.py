@@ -37,10 +37,12 @@ class FitConfig:
     plies_flat : when the first scan's loss varies by less than this share of its minimum
         over every count, the photo does not determine the plies: the start's count is held
         and no more steps go to it (issue 5 measured 2–7 % on forward-model renders)
-    colour_solves : fractions of the steps after which the body colours are solved in closed
-        form with everything else fixed (:func:`weavecap.fit.joint.solve_colours`). Once, late
-        in each round: a solve after the first step, on cells not yet registered, set one yarn
-        family black on the bench's plain weave (draft 29.0 → 22.9 dB); at 70% it gives 29.9
+    colour_solves : fractions of the steps after which the body colours and the rig's gain
+        (the photo's exposure and white balance) are solved in closed form with everything
+        else fixed (:func:`weavecap.fit.joint.solve_colours`): right at the start of each
+        round — each round's cells are registered first now (a solve on unregistered cells had
+        set the bench's plain weave's warp black, 29.0 → 22.9 dB) and a photo brighter than
+        the rig's white fabric needs its gain before any step — and late (70%)
     radius_step : first step of the radius search (and size of a radius proposal when radii
         are annealed), Algorithm 1 units; radius_min_step: the search stops below it
     radius_every : one radius search round every this many gradient steps
@@ -58,7 +60,10 @@ class FitConfig:
         differs from it in a cell or two
     family_colours : end each fit on the photo's own yarn colours: scale each family's body
         colours so that its mean at the centres of the cells it tops matches the photo's
-        (:func:`weavecap.fit.joint.match_family_colours`, §5.2)
+        (:func:`weavecap.fit.joint.match_family_colours`, §5.2); kept unless the loss rises
+        by more than ``family_colour_tolerance`` (the rest of the fit then cannot show that
+        colour there: on the independent bench photos the rise was 0–18%, median 3%; on an
+        own-render random 3×3, 14% for 3 dB)
     vote_lock : a cell whose model-free vote (:mod:`weavecap.estimate.orientation`) is at
         least this decided keeps the vote's state through the fit: on the independent bench
         photos 98% of such cells were right (92% of those voted 0.3–0.5, 70% under 0.05); on
@@ -92,6 +97,7 @@ class FitConfig:
     extra_round_gain: float = 0.05
     named_weave_tolerance: float = 0.05
     family_colours: bool = True
+    family_colour_tolerance: float = 0.1
     vote_lock: float = 0.5
     vote_margin: float = 0.05
 

@@ -189,39 +189,38 @@ def scan_plies(fs: FabricScene, measure: Callable[[], float]) -> dict:
 
 def _range_scale(systems: list, k_now: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> float:
     """The common factor s on the gain of channels the photo does not pin: the smallest s
-    (from 1 / max k, i.e. a gain of at least 1, up to 64) whose best colours within their range
-    explain those channels as well as any s does (within 0.1 % of the loss; factors 1.25
-    apart). Raising the gain past what the range needs changes nothing but the colour-free
-    light (k × the rest), so the smallest such s is the one the photo asks for.
+    (from 1 / max k, i.e. a gain of at least 1, up to 64) at which the colours, within their
+    range, explain those channels as well as colours without an upper bound would (within
+    0.1 % of the loss; bisection between factors 1.25 apart). The colour-free light (k × the
+    rest) is held at the current gain meanwhile: let it grow with s, and a specular term could
+    stand in for the colours at any gain (a fabric photographed a stop darker came out with a
+    higher gain and black yarns).
 
-    ``systems``: per channel (colour bases a, colour-free part d, target t); the loss of a
-    gain k is min over colours in range of ‖t − k d − k a x‖², by one QR of a per channel.
+    ``systems``: per channel (colour bases a, colour-free part d, target t).
     """
     from scipy.optimize import lsq_linear
 
-    prepared = []
-    for a, d, t in systems:
-        q, r = np.linalg.qr(a)
-        prepared.append((r, q.T @ t, q.T @ d, float(t @ t), float(t @ d), float(d @ d)))
-    def loss(f: float) -> float:
+    def loss(f: float, upper) -> float:
         total = 0.0
-        for (r, qt, qd, tt, td, dd), k in zip(prepared, k_now * f):
-            qb = qt - k * qd
-            x = lsq_linear(k * r, qb, bounds=(lo, hi)).x
-            total += tt - 2 * k * td + k * k * dd - qb @ qb + float(np.sum((k * r @ x - qb) ** 2))
+        for (a, d, t), k in zip(systems, k_now):
+            b = t - k * d
+            x = lsq_linear(k * f * a, b, bounds=(lo, upper)).x
+            total += float(np.sum((k * f * a @ x - b) ** 2))
         return total
 
+    unbounded = loss(1.0, np.inf)
+    good = unbounded + 1e-3 * abs(unbounded) + 1e-15
     factors = float(1.0 / k_now.max()) * 1.25 ** np.arange(0, 64)
     factors = factors[factors <= 64.0]
-    losses = np.array([loss(f) for f in factors])
-    good = losses.min() + 1e-3 * abs(losses.min()) + 1e-15
-    i = int(np.flatnonzero(losses <= good)[0])
+    i = next((n for n, f in enumerate(factors) if loss(f, hi) <= good), None)
+    if i is None:
+        return float(factors[-1])
     if i == 0:
         return float(factors[0])
     lo_f, hi_f = float(factors[i - 1]), float(factors[i])  # the smallest good factor, by bisection
     for _ in range(12):
         mid = 0.5 * (lo_f + hi_f)
-        lo_f, hi_f = (lo_f, mid) if loss(mid) <= good else (mid, hi_f)
+        lo_f, hi_f = (lo_f, mid) if loss(mid, hi) <= good else (mid, hi_f)
     return hi_f
 
 
@@ -363,13 +362,16 @@ def match_family_colours(fs: FabricScene, target: np.ndarray, measure: Callable[
     def shown() -> np.ndarray:
         return blur(render_numpy(fs, spp=spp), blur_px).astype(np.float64)
 
+    # each colour scales along its own direction, or white where it is (nearly) black
+    direction = {k: np.where(np.asarray(v, np.float64) > 0.02, np.asarray(v, np.float64), 1.0)
+                 for k, v in before.items()}
     for k in before:
         fs.set(k, (0.0, 0.0, 0.0))
     dark = shown()
     parts = {}
     for f in families:
         for k in keys[f]:
-            fs.set(k, before[k])
+            fs.set(k, tuple(direction[k]))
         parts[f] = shown() - dark
         for k in keys[f]:
             fs.set(k, (0.0, 0.0, 0.0))
@@ -380,7 +382,7 @@ def match_family_colours(fs: FabricScene, target: np.ndarray, measure: Callable[
         b = np.array([target[..., ch][masks[f]].mean() - dark[..., ch][masks[f]].mean() for f in families])
         if abs(np.linalg.det(a)) > 1e-12:
             scale[:, ch] = np.clip(np.linalg.solve(a, b), 0.0, None)
-    wanted = {k: np.asarray(before[k], np.float64) * scale[i] for i, f in enumerate(families) for k in keys[f]}
+    wanted = {k: direction[k] * scale[i] for i, f in enumerate(families) for k in keys[f]}
     over = max(1.0, max(float(v.max()) for v in wanted.values())) if gain else 1.0
     if over > 1.0:
         fs.rig = fs.rig.with_gain(np.asarray(fs.rig.gain) * over)
@@ -575,13 +577,19 @@ def fit(target: np.ndarray, start: Fabric, *, config: FitConfig = FitConfig(), l
     moves = {k: {"proposed": v[0], "accepted": v[1]} for k, v in {**annealer.moves, **search.moves}.items()}
     if config.family_colours and colour_keys:  # end on the photo's own yarn colours
         fs = build_scene(best_fabric, fs.view, light=best_rig)
+        rig_before_match = best_rig
         pinned = bool(solves) and any(solves[-1].get("gain_determined", []))  # the gaps fixed the gain
         matched = match_family_colours(fs, target, measure, spp=config.spp, blur_px=blur_px,
                                        gain=fit_gain and not pinned)
         best_rig = fs.rig
+        rise = matched["loss_after"] / max(matched["loss_before"], 1e-12) - 1
+        kept = rise <= config.family_colour_tolerance
         moves["family_colours"] = {"renders": matched["renders"], "scale": matched["scale"],
-                                   "loss_rise": round(matched["loss_after"] / max(matched["loss_before"], 1e-12) - 1, 4)}
-        best_loss, best_fabric = matched["loss_after"], fs.to_fabric()
+                                   "loss_rise": round(rise, 4), "kept": kept}
+        if kept:
+            best_loss, best_fabric = matched["loss_after"], fs.to_fabric()
+        else:
+            best_rig = rig_before_match
     if sweeps:
         moves["pattern"] = {"sweeps": len(sweeps), "cells_changed": sum(s["changed"] for s in sweeps),
                             "renders": sum(s["renders"] for s in sweeps),

@@ -165,32 +165,3 @@ def describe(plan: Plan, result, errors: dict, *, light: str, light_reason: str,
         "yarn_pitch_px": [round(float(v), 3) for v in pitch_px],
     }
 
-
-def gap_contrast(canvas: np.ndarray, shape: tuple[int, int]) -> float:
-    """How bright the photo's gaps are against its yarns: the mean luminance at the cell
-    corners (a tenth of a cell square, where a warp gap crosses a weft gap once the canvas
-    runs from gap to gap, :func:`weavecap.estimate.cells.gap_phase`: the only place where no
-    yarn covers the gap) over that of the cell centres. Under 1: dark gaps (nothing lights
-    the back); over 1: the back light shows through."""
-    from ..estimate.cells import gap_phase
-
-    n_e, n_a = shape
-    c_y, c_x = canvas.shape[0] // n_e, canvas.shape[1] // n_a
-    gy, gx = gap_phase(canvas, shape)
-    lum = np.roll(np.asarray(canvas, np.float64).mean(axis=2), (-int(round(gy)), -int(round(gx))), axis=(0, 1))
-    fy, fx = (np.arange(lum.shape[0]) % c_y) / c_y, (np.arange(lum.shape[1]) % c_x) / c_x
-    near_y, near_x = np.minimum(fy, 1 - fy) < 0.05, np.minimum(fx, 1 - fx) < 0.05
-    border = near_y[:, None] & near_x[None, :]
-    centre = (np.abs(fy - 0.5) < 0.25)[:, None] & (np.abs(fx - 0.5) < 0.25)[None, :]
-    return float(lum[border].mean() / max(float(lum[centre].mean()), 1e-12))
-
-
-def choose_rig(canvas: np.ndarray, shape: tuple[int, int], *, dark: float = 0.85) -> tuple[str, str]:
-    """The light rig for ``--light auto``: ``front`` when the gaps are darker than
-    ``dark`` × the yarns (:func:`gap_contrast`: nothing lights the back, so no transmission is
-    modelled and the backdrop is dark), else ``both`` (§6.4's default). Returns the rig's name
-    and the reason, with the measured contrast."""
-    contrast = gap_contrast(canvas, shape)
-    if contrast < dark:
-        return "front", f"the gaps are dark ({contrast:.2f} of the yarns' luminance): nothing lights the back"
-    return "both", f"the gaps are bright ({contrast:.2f} of the yarns' luminance): the back light shows through"

@@ -168,6 +168,35 @@ def same_within_noise(a: RegisteredFit, b: RegisteredFit, *, spp: int, z: float 
     return bool(abs(d.mean()) <= z * d.std(ddof=1) / np.sqrt(d.size))
 
 
+def choose_rig(prepared, cells, fabric: wparams.Fabric, *, c: int, spp: int,
+               names: tuple[str, ...] = ("both", "front")) -> tuple[str, dict]:
+    """The light rig (§6.4) that explains the photo best for ``--light auto``: ``fabric`` under
+    each of ``names``, the photo's median repeat registered on its render, its colours and the
+    rig's gain solved in closed form (:func:`weavecap.fit.joint.solve_colours`), and the rig
+    with the lower loss wins. A back-lit photo's gaps glow and its yarns let the light through;
+    a front-lit one has neither, and a rig with a back light then explains it worse (and the
+    other way round). Returns the name and each rig's loss."""
+    from ..estimate.forward import BLUR_CELLS, RepeatRenderer
+    from ..model.render import blurred_mse, render_numpy, white_level
+    from ..model.scene import View, build_scene, light_rig
+    from .joint import solve_colours
+
+    losses = {}
+    for name in names:
+        rig = light_rig(name)
+        model = RepeatRenderer(fabric, cell_px=c, light=rig, blur_cells=BLUR_CELLS,
+                               white=white_level(prepared.rectification.image)).render()
+        _, _, target = _registered_target(prepared, cells, model, c)
+        fs = build_scene(fabric, View(tiles=(1, 1), size=max(target.shape[:2]), spp=spp), light=rig)
+
+        def measure() -> float:
+            return blurred_mse(render_numpy(fs), target, BLUR_CELLS * c)
+
+        solve_colours(fs, target, measure, spp=spp, blur_px=BLUR_CELLS * c, gain=True)
+        losses[name] = measure()
+    return min(losses, key=losses.get), {k: round(v, 6) for k, v in losses.items()}
+
+
 def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptions, *, c: int,
                    fixed: frozenset[str], explore_patterns: bool, rig: LightRig | None = None) -> RegisteredFit:
     """The joint fit (§6), alternating with the registration of the photo's cells.

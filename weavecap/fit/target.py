@@ -223,18 +223,18 @@ def dual(fabric: Fabric) -> Fabric:
     return fabric.replace({**swap, "pattern": 1 - fabric.pattern})
 
 
-def sharpness_blur(image: np.ndarray, target: np.ndarray, c: int) -> float:
+def sharpness_blur(image: np.ndarray, target: np.ndarray, c: int, *, sharpness: float = 1.0) -> float:
     """The most blur (σ, canvas px) the photo shows relative to ``image``, an unblurred render
-    of its repeat: the σ at which the render's gradient energy falls to the photo's
-    (:func:`weavecap.fit.fidelity.gradient_energy`; bisection over [0, c/4]); 0 when the
-    render is no sharper than the photo even unblurred. Edges dominate the gradient energy,
-    so this is the photo's edge spread measured against the model's own edges; noise and
-    fibre hair in the photo only lower it."""
+    of its repeat: the σ at which the render's gradient energy falls to ``sharpness`` times the
+    photo's (:func:`weavecap.fit.fidelity.gradient_energy`; bisection over [0, c/4]); 0 when
+    the render is no sharper than that even unblurred. Edges dominate the gradient energy, so
+    this is the photo's edge spread measured against the model's own edges; noise and fibre
+    hair in the photo only lower it."""
     from ..model.render import as_photographed, white_level
     from .fidelity import gradient_energy
 
     white = white_level(target)
-    goal = gradient_energy(target)
+    goal = sharpness * gradient_energy(target)
 
     def energy(s: float) -> float:
         return gradient_energy(as_photographed(image, s, white))
@@ -250,7 +250,7 @@ def sharpness_blur(image: np.ndarray, target: np.ndarray, c: int) -> float:
     return 0.5 * (lo + hi)
 
 
-def photo_blur(image: np.ndarray, target: np.ndarray, c: int) -> tuple[float, float]:
+def photo_blur(image: np.ndarray, target: np.ndarray, c: int, *, sharpness: float = 0.9) -> tuple[float, float]:
     """σ (canvas px) of the Gaussian that makes ``image``, an unblurred render of one repeat
     at ``c`` px per cell (same shape as ``target``), most like ``target`` without blurring it
     more than the photo is blurred, and the MSE it leaves.
@@ -258,16 +258,20 @@ def photo_blur(image: np.ndarray, target: np.ndarray, c: int) -> tuple[float, fl
     The photo is smoothed by resampling to the canvas, by the median over repeats and by the
     camera itself; how much in all varies from photo to photo, and the MSE is very sensitive to
     it (on a 16-px canvas: 0.0033 at σ = 1 px, 0.0025 at 1.5, 0.0053 at 2). It is measured by a
-    bounded 1-D search over [0, c/4] — and capped at :func:`sharpness_blur`: where the model
-    cannot match the photo (another shading, colours not yet fitted), the MSE's best blur grows
-    to average the mismatch away (issue 11: 2.4–6.0 px on cells of 17–24 px, renders a
-    sixth as sharp as their photos), and a fit through that blur learns a haze.
+    bounded 1-D search over [0, c/4] — and capped at :func:`sharpness_blur` for
+    ``sharpness`` (the render keeps that share of the photo's gradient energy): where the
+    model cannot match the photo (another shading, colours not yet fitted), the MSE's best blur
+    grows to average the mismatch away (issue 11: 2.4–6.0 px on cells of 17–24 px, renders a
+    sixth as sharp as their photos), and a fit through that blur learns a haze. At 1.0 the cap
+    bound on the forward model's own renders too, whose 4-spp fibre grooves the photo's
+    median averages (own-render random 2×3: 35.2 → 31.1 dB); 0.9 is the sharpness issue 11
+    asks of a capture.
     """
     from scipy.optimize import minimize_scalar
 
     from ..model.render import blurred_mse
 
-    cap = sharpness_blur(image, target, c)
+    cap = sharpness_blur(image, target, c, sharpness=sharpness)
     best = minimize_scalar(lambda s: blurred_mse(image, target, s), bounds=(0.0, c / 4), method="bounded",
                            options={"xatol": 0.02})
     sigma = min(float(best.x), cap)

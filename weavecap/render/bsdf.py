@@ -67,17 +67,29 @@ class Placement:
 
 @dataclass
 class SurfacePoint:
-    """What the maps say at a point, as Dr.Jit values (one lane per point)."""
+    """What the maps say at a point, as Dr.Jit values (one lane per point). The visibility
+    maps are read only when asked for, and only for the lanes asked about (:meth:`horizon`,
+    :meth:`through`): a light is on one side of the fabric or the other, never both."""
 
     coverage: object  # Float
     warp: object  # Float, the warp share of the yarn on top
     normal: object  # Vector3f, face frame, unit
     groove: tuple  # (Float, Float): groove depths between plies, between fibres
     occlusion: object  # Float, the forward model's ambient occlusion
-    through: list  # 1 + K Floats: light through the yarn leaves the fabric (straight, tilted)
-    horizon: list  # K Floats, sine of the horizon elevation per azimuth
     gain: object  # Float, the §6.3 noise gain (1 without noise)
     uv: object  # Point2f, (s, -t): the position in the repeat's image (body-colour textures)
+    through_0: object  # Float, light straight through the yarn leaves the fabric
+    textures: list  # the visibility textures (the tilted `through` ring, then the horizon)
+    position: object  # Point2f, the texture position they are read at
+
+    def through(self, active=True) -> list:
+        """1 + K Floats: light through the yarn leaves the fabric, straight and tilted."""
+        ring = [x for tex in self.textures[:2] for x in tex.eval(self.position, active)]
+        return [self.through_0] + ring
+
+    def horizon(self, active=True) -> list:
+        """K Floats: sine of the horizon elevation per azimuth."""
+        return [x for tex in self.textures[2:] for x in tex.eval(self.position, active)]
 
 
 #: the maps' channels in the order they are packed into 4-channel textures
@@ -119,7 +131,9 @@ def _azimuth(w, start_deg: float = 0.0):
 class SurfaceTextures:
     """The maps of one fabric as Dr.Jit textures, looked up at fabric coordinates.
 
-    The CHANNELS packed four to a texture, both sides stacked, wrapping over the repeat, and
+    The CHANNELS packed four to a texture (the first two hold what every shading call needs, the
+    others the visibility maps, read lane by lane as needed), both sides stacked, wrapping over
+    the repeat, and
     the coverage alone (the face's: a vertical ray meets a yarn from either side or from
     neither) for null interactions; the noise gain, when there is one, tiles over its own
     period. ``linear`` filtering interpolates between texels, for views where a texel covers a
@@ -155,18 +169,17 @@ class SurfaceTextures:
         y_in = -t - dr.floor(-t)  # image rows run down, v up
         side = dr.select(back, float(rows + 2), 0.0)
         pos = mi.Point2f(s, (side + 1.0 + y_in * rows) / (2.0 * (rows + 2)))
-        values = [x for tex in self.textures for x in tex.eval(pos)]
+        values = [x for tex in self.textures[:2] for x in tex.eval(pos)]  # the first 8 channels
         c = dict(zip(CHANNELS, values))
         nx, ny = c["normal_x"], c["normal_y"]
         normal = dr.normalize(mi.Vector3f(nx, ny, dr.sqrt(dr.maximum(1.0 - nx * nx - ny * ny, 1e-4))))
         gain = mi.Float(1.0)
         if self.noise is not None:
             gain = self.noise.eval(mi.Point2f(s / self.noise_repeats, -t / self.noise_repeats))[0]
-        k = HORIZON_AZIMUTHS
         return SurfacePoint(coverage=dr.clip(c["coverage"], 0.0, 1.0), warp=dr.clip(c["warp"], 0.0, 1.0),
                             normal=normal, groove=(c["groove_p"], c["groove_f"]), occlusion=c["occlusion"],
-                            through=[c[f"through_{j}"] for j in range(1 + k)],
-                            horizon=[c[f"horizon_{j}"] for j in range(k)], gain=gain, uv=mi.Point2f(s, -t))
+                            gain=gain, uv=mi.Point2f(s, -t), through_0=c["through_0"], textures=self.textures[2:],
+                            position=pos)
 
 
 @dataclass
@@ -205,23 +218,24 @@ def shading_of(fabric: Fabric) -> tuple[_bysdf.Shading, YarnColours]:
     return shading, colours
 
 
-def horizon_visibility(point: SurfacePoint, w):
+def horizon_visibility(point: SurfacePoint, w, active=True):
     """How much of a light in face-frame direction ``w`` (z > 0) the neighbouring yarns leave
     visible, in [0, 1]: ``w``'s elevation against the point's horizon, interpolated between
-    its azimuths."""
-    h = _hat(point.horizon, _azimuth(w))
+    its azimuths (maps read for the ``active`` lanes only)."""
+    h = _hat(point.horizon(active), _azimuth(w))
     return dr.clip((w.z - h) / HORIZON_SOFTNESS + 0.5, 0.0, 1.0)
 
 
-def through_visibility(point: SurfacePoint, w):
+def through_visibility(point: SurfacePoint, w, active=True):
     """How much light from the far side, arriving from face-frame direction ``w`` (z < 0),
     passes the yarn at ``point`` and leaves the fabric towards the viewer, in [0, 1]: the
     ``through`` map interpolated between straight through and its tilted ring (in tilt, up to
     THROUGH_TILT_DEG, held beyond) and between the ring's azimuths."""
     tilt = dr.acos(dr.clip(-w.z, -1.0, 1.0))
     a = dr.clip(tilt / math.radians(THROUGH_TILT_DEG), 0.0, 1.0)
-    ring = _hat(point.through[1:], _azimuth(w, THROUGH_AZIMUTH_DEG))
-    return dr.clip((1.0 - a) * point.through[0] + a * ring, 0.0, 1.0)
+    through = point.through(active)
+    ring = _hat(through[1:], _azimuth(w, THROUGH_AZIMUTH_DEG))
+    return dr.clip((1.0 - a) * through[0] + a * ring, 0.0, 1.0)
 
 
 def _facing_normal(normal, wi):
@@ -248,8 +262,9 @@ def eval_surface(p: _bysdf.Shading, colours: YarnColours, point: SurfacePoint, w
     same_side = wo.z > 0.0
     # the viewer's side: lit above the yarn's own surface and the neighbours' horizon;
     # the far side: through the yarn where its exit-point ray leaves the fabric
-    visible = dr.select(same_side, dr.select(wl.z > 0.0, horizon_visibility(point, wo), 0.0),
-                        through_visibility(point, wo))
+    lit_above = same_side & (wl.z > 0.0)
+    visible = dr.select(same_side, dr.select(lit_above, horizon_visibility(point, wo, lit_above), 0.0),
+                        through_visibility(point, wo, ~same_side))
     out = value * (visible * point.coverage * point.gain)
     return dr.select((wi.z > 0.0) & dr.isfinite(out.x + out.y + out.z), out, 0.0)
 

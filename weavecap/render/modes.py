@@ -48,6 +48,9 @@ class Mode:
         (``linear``: whether a texel is big enough in the image to interpolate maps)
     integrator : ``(lighting, options) -> dict``: the Mitsuba integrator (a ``load_dict`` dict)
     fold : whether ``--fold auto`` adds a fold term to this mode's renders
+    sampler : the camera's sampler (a ``load_dict`` dict without ``sample_count``), default
+        Mitsuba's ``independent``
+    spp : samples per pixel when ``--spp`` is not given
     """
 
     name: str
@@ -55,6 +58,8 @@ class Mode:
     bsdf: Callable
     integrator: Callable
     fold: bool = False
+    sampler: dict | None = None
+    spp: int = 64
 
 
 @dataclass(frozen=True)
@@ -115,7 +120,8 @@ def mode(name: str) -> Mode:
 def mode_names() -> list[str]:
     """Every registered mode, built-ins first."""
     _load_plugins()
-    return sorted(MODES, key=lambda n: (n not in ("reference", "direct"), n))
+    built_in = [n for n in ("reference", "direct") if n in MODES]
+    return built_in + sorted(n for n in MODES if n not in built_in)
 
 
 def fold_term(choice: str, chosen: Mode, mesh) -> FoldTerm | None:

@@ -162,7 +162,7 @@ def prepare_render(fabric: Fabric, mesh: RenderMesh, options: RenderOptions) -> 
     linear = pixels_per_yarn / maps.texels_per_yarn >= LINEAR_FROM
     bsdf = chosen.bsdf(fabric, maps, placement, noise, linear)
     scene_dict = {"type": "scene", "integrator": chosen.integrator(lights, options),
-                  "sensor": camera.sensor(min(options.spp, PASS_SPP)), "garment": mesh.to_mitsuba(bsdf), **lights.emitters}
+                  "sensor": camera.sensor(min(options.spp, PASS_SPP), chosen.sampler), "garment": mesh.to_mitsuba(bsdf), **lights.emitters}
     if options.ground:
         scene_dict["ground"] = ground(mesh.bounds)
     scene = mi.load_dict(scene_dict)

@@ -88,12 +88,12 @@ class Camera:
         right /= np.linalg.norm(right)
         return right, np.cross(back, right), back
 
-    def sensor(self, spp: int) -> dict:
+    def sensor(self, spp: int, sampler: dict | None = None) -> dict:
         """The Mitsuba sensor (perspective or orthographic, box-filtered film of ``size``)."""
         look = mi.ScalarTransform4f().look_at(origin=list(self.origin), target=list(self.target), up=list(self.up))
         film = {"type": "hdrfilm", "width": int(self.size[0]), "height": int(self.size[1]),
                 "rfilter": {"type": "box"}, "pixel_format": "rgb"}
-        sampler = {"type": "independent", "sample_count": int(spp)}
+        sampler = dict(sampler or {"type": "independent"}, sample_count=int(spp))
         if self.kind == "orthographic":
             to_world = look @ mi.ScalarTransform4f().scale([self.half_width, self.half_width, 1.0])
             return {"type": "orthographic", "to_world": to_world, "film": film, "sampler": sampler,

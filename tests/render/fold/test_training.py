@@ -61,10 +61,11 @@ def test_train_renderer_command(tmp_path):
     from weavecap.cli.main import cli
 
     runner = CliRunner()
-    result = runner.invoke(cli, ["train-renderer"])
-    assert result.exit_code == 2 and "--fold" in result.output
-    target = tmp_path / "w.json"
+    result = runner.invoke(cli, ["train-renderer", "--no-woven", "--no-fold"])
+    assert result.exit_code == 2 and "nothing to train" in result.output
+    target = tmp_path / "out" / B.WEIGHTS_FILE
+    target.parent.mkdir()
     target.write_text("{}")
-    result = runner.invoke(cli, ["train-renderer", "--fold", "-o", str(target), "--work", str(tmp_path / "w")])
-    assert result.exit_code == 2 and "--force" in result.output  # nothing overwritten without --force
-    assert json.loads(target.read_text()) == {}
+    result = runner.invoke(cli, ["train-renderer", "-o", str(target.parent), "--work", str(tmp_path / "w")])
+    assert result.exit_code == 2 and "--force" in result.output  # nothing overwritten without --force,
+    assert json.loads(target.read_text()) == {} and not (tmp_path / "w").exists()  # checked before any work

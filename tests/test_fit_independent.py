@@ -1,0 +1,40 @@
+"""The capture end to end on photos the forward model did not make (weavecap.heightfield_photos):
+known patterns recovered at draft, face and direction included; the fit ends on the photo's
+own yarn colours whatever the exposure and white balance."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from weavecap import heightfield_photos as hp
+from weavecap.estimate.weave_name import equal_up_to_shift, weave_name
+from weavecap.pipeline import CaptureOptions, capture
+
+CASES = {
+    # warp-faced satin, back-lit gaps, 0.7 stop dark with a cast: face and move number
+    "satin5_warp": dict(pattern=hp.satin(5, 3, weft_faced=False), warp_colour=(0.05, 0.45, 0.6),
+                        weft_colour=(0.25, 0.22, 0.2), gaps="backlit", cross_section="ellipse", exposure_stops=-0.7,
+                        white_balance=(1.1, 1.0, 0.85)),
+    # a plain weave whose warp and weft are nearly the same colour (only the shading shows the
+    # crossings), dark gaps, over-exposed with a cast
+    "plain": dict(pattern=np.array([[1, 0], [0, 1]], np.uint8), warp_colour=(0.55, 0.3, 0.2),
+                  weft_colour=(0.53, 0.31, 0.21), gaps="dark", cross_section="lens", exposure_stops=0.6,
+                  white_balance=(0.9, 1.0, 1.1)),
+}
+
+
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_draft_recovers_an_independent_photo(name, tmp_path):
+    spec = hp.PhotoSpec(name, pitch_px=(26.0, 24.0), size_px=(768, 768), rotate_deg=6.0, tilt_deg=(2.0, -3.0),
+                        blur_px=0.7, noise=0.008, jpeg_quality=88, **CASES[name])
+    path = hp.write_photo(tmp_path / f"{name}.jpg", spec, seed=3)
+    cap = capture(path, CaptureOptions(quality="draft"))
+    assert cap.status == "ok", cap.report.get("reason")
+    assert equal_up_to_shift(cap.fabric.pattern, spec.pattern), (weave_name(cap.fabric.pattern), weave_name(spec.pattern))
+    fid = cap.report["fit"]["fidelity"]
+    assert max(fid["delta_e"].values()) < 10, fid
+    assert fid["structure"] > 0.5, fid
+    light = cap.report["fit"]["light"]
+    assert all(np.isfinite(light["gain"])) and min(light["gain"]) > 0
+    assert "specular.coefficient" in cap.report["modelled"]["fixed"]

@@ -1,0 +1,53 @@
+"""The woven neural renderer (Chen et al. 2024, *Real-time Neural Woven Fabric Rendering*).
+
+One small network for every captured fabric: an encoder turns a fabric's baked surface maps and
+non-colour parameters into a latent once; a decoder, compiled into the render kernel, turns a
+pixel's footprint and the light and view directions into the footprint-filtered surface BSDF,
+split into colour-free channels the colours multiply (so colours change without re-encoding).
+
+- :mod:`.terms` splits :func:`weavecap.render.bsdf.eval_surface` into those channels (exact);
+- :mod:`.footprint` filters periodic maps over boxes (summed-area tables) and makes the
+  prefiltered guess the decoder corrects;
+- :mod:`.data` makes the training data, :mod:`.network` is the PyTorch network and its losses,
+  :mod:`.train` trains it (resumable) and measures its held-out errors;
+- :mod:`.infer` (encoder once, Dr.Jit decoder), :mod:`.bsdf` (the Mitsuba BSDF at the
+  footprint) and :mod:`.integrator` (one sample a pixel, direct light) render with it;
+- :mod:`.bench` is its section of ``weavecap bench --render``.
+
+Importing this package registers the ``neural`` mode of ``weavecap render``
+(:mod:`weavecap.render.modes`); it loads no Mitsuba, Dr.Jit or PyTorch until a render asks.
+"""
+
+from __future__ import annotations
+
+#: the neural renderer's camera samples: pixel centres (1 spp), or the centres of a grid of
+#: sub-pixels (spp = n × m, each sample's footprint its sub-pixel's), so the footprints tile
+#: the pixel; deterministic (Mitsuba's multi-jittered sampler without its jitter)
+PIXEL_CENTRES = {"type": "multijitter", "jitter": False}
+
+
+def _neural_bsdf(fabric, maps, placement, noise, linear):
+    from .bsdf import NeuralSurfaceBSDF
+
+    return NeuralSurfaceBSDF(fabric, maps, placement, noise)
+
+
+def _neural_integrator(lighting, options) -> dict:
+    from . import integrator as _integrator  # noqa: F401  (registers "woven_direct")
+
+    props = {"type": "woven_direct"}
+    if lighting.ambient:
+        props["ambient"] = float(lighting.ambient)
+    if lighting.background is not None:
+        props["background"] = float(lighting.background)
+    return props
+
+
+def _register() -> None:
+    from ..modes import Mode, register_mode
+
+    register_mode(Mode("neural", "woven neural BSDF at the pixel's footprint, one sample a pixel (Chen et al. 2024)",
+                       bsdf=_neural_bsdf, integrator=_neural_integrator, fold=True, sampler=PIXEL_CENTRES, spp=1))
+
+
+_register()
