@@ -46,13 +46,16 @@ def test_numpy_evaluation_is_the_trained_torch_network():
     assert model.parameters == 1466
 
 
-def test_black_reflects_nothing_and_every_output_is_finite_and_non_negative():
-    model, _ = random_model(1)
+@pytest.mark.parametrize("which", ["random", "shipped"])
+def test_black_reflects_nothing_and_every_output_is_finite_and_non_negative(which):
+    model = random_model(1)[0] if which == "random" else B.BLIDF.load()
     rng = np.random.default_rng(1)
     feats, light, albedo = random_inputs(200, rng)
     albedo[:50] = 0.0
+    albedo[130:140] = 1.0  # white
     feats[50:100] *= 1e6  # far outside anything trained on: clipped
     feats[100:110] = np.nan_to_num(np.inf)
+    feats[140:150] = np.nan
     light[110:120] = [0.0, 0.0, 1.0]  # along the normal, and grazing
     light[120:130] = [1.0, 0.0, 0.0]
     out = model.gain(feats, light, albedo)

@@ -14,13 +14,20 @@ view that looks into the folds, at :data:`SIZE`:
 
 RMSE is taken over the garment's pixels (linear radiance). LocalPT's local light is rendered as
 two halves of :data:`REF_SPP` / 2 samples with different seeds: their mean is the reference and
-half their RMS difference the reference's own noise (an RMSE against it cannot go below that). *Equal time*: LocalPT (direct +
-local) at the largest spp that renders within the time of direct + fold at :data:`SPP`, both
-against the reference. *Seen* meshes are the fixture meshes of the shapes trained on (at the
-fixtures' own, coarser tessellation); *unseen*: the towel of ``../shared/meshes`` (without
-the head under it) and :func:`crumpled_sheet`, folds in random directions, made here. The
-frame time (:func:`frame_time`): one 1280×720 direct render at 64 spp, with and without the
-fold term, in one process, on the towel and the skirt.
+half their RMS difference the reference's own noise (an RMSE against it cannot go below that).
+*Equal time*: LocalPT (direct + local) at the largest spp that renders within the time of
+direct at :data:`SPP` + the fold term, both against the reference — a race the direct light's
+noise decides, the same in both; so also *the local light at equal time*: the reference's
+direct image plus the fold term, against it plus LocalPT's local light at the spp that renders
+in the fold term's time. *Seen* meshes are the
+fixture meshes of the shapes trained on (at the fixtures' own, coarser tessellation);
+*unseen*: the towel of ``../shared/meshes`` (without the head under it) and
+:func:`crumpled_sheet`, folds in random directions, made here.
+
+The frame (:func:`frame_time`), on the towel and the skirt: one 1280×720 direct render at
+:data:`SPP`, without and with the fold term, in one process; and the equal-time comparison
+again at that size (where the fold term's per-vertex cost is small against the frame's), against
+a reference of :data:`FRAME_REF_SPP`.
 
 The default run keeps to minutes: five seen and two unseen meshes at 192×108 (``quick``: one
 of each).
@@ -41,7 +48,9 @@ from ...fixtures import path as fixture_path
 FABRIC = fixture_path("params", "satin_5.json")
 LIGHT = "sun"
 SIZE = (192, 108)
-REF_SPP = 512
+REF_SPP = 4096
+FRAME_REF_SPP = 512
+FRAME_SIZE = (1280, 720)
 SPP = 64
 PT_DEPTH = 16
 SHARED_MESHES = Path(__file__).resolve().parents[3] / ".." / "shared" / "meshes"
@@ -97,6 +106,18 @@ def _localpt_mode(radius: float):
                                                       "max_depth": PT_DEPTH, "rr_depth": 5})
 
 
+def _localpt_scene(fabric, mesh, options, radius: float):
+    """``weavecap render``'s scene of ``options`` with LocalPT's local inter-reflection as its integrator."""
+    from .. import modes
+    from ..run import prepare_render
+
+    modes.register_mode(_localpt_mode(radius))
+    try:
+        return prepare_render(fabric, mesh, replace(options, mode="fold-localpt")).scene
+    finally:
+        modes.MODES.pop("fold-localpt", None)
+
+
 def _render(fabric, mesh, options):
     from ..run import render_fabric
 
@@ -127,7 +148,6 @@ def rmse(a: np.ndarray, b: np.ndarray, mask: np.ndarray) -> float:
 def measure_mesh(name: str, path: Path, view, seen: bool, *, folder: Path, progress=None) -> dict:
     """Every image and error of one mesh (see the module docstring)."""
     from ... import params
-    from .. import modes
     from ..mesh import load_mesh
     from ..run import RenderOptions, prepare_render, render_passes
     from . import term
@@ -148,11 +168,7 @@ def measure_mesh(name: str, path: Path, view, seen: bool, *, folder: Path, progr
         garment = term.garment_of(scene)
         asg, t_asg_fit = _timed(term.mesh_asg, scene, garment, mesh.positions, mesh.faces, desc)
         (fold_asg, _), t_fold_asg = _timed(term.fold_light, scene, mesh, seed=1, asg=asg)
-    modes.register_mode(_localpt_mode(radius.value))
-    try:
-        local_scene = prepare_render(fabric, mesh, replace(base, mode="fold-localpt")).scene
-    finally:
-        modes.MODES.pop("fold-localpt", None)
+    local_scene = _localpt_scene(fabric, mesh, base, radius.value)
     say(f"fold bench: {name}: LocalPT")
     # two halves of different seeds: their mean is the reference, their difference its own noise
     (half_a, t_a), (half_b, t_b) = (_timed(render_passes, local_scene, REF_SPP // 2, s) for s in (1, 2))
@@ -167,6 +183,10 @@ def measure_mesh(name: str, path: Path, view, seen: bool, *, folder: Path, progr
     say(f"fold bench: {name}: LocalPT at equal time ({k} spp)")
     eq_direct, t_eq1 = _timed(render_passes, scene, k, 3)
     eq_local, t_eq2 = _timed(render_passes, local_scene, k, 3)
+    # the local light alone at equal time: the fold term against LocalPT's local light in the fold term's time
+    k_local = max(1, int(t_fold / (t_local / REF_SPP)))
+    say(f"fold bench: {name}: LocalPT's local light in the fold term's time ({k_local} spp)")
+    eq_local_only, t_eq_local = _timed(render_passes, local_scene, k_local, 4)
     reference = direct + local
     mask = garment_mask(direct, pt)
     errors = {"direct": rmse(direct, reference, mask), "direct_fold": rmse(direct + fold, reference, mask),
@@ -184,6 +204,9 @@ def measure_mesh(name: str, path: Path, view, seen: bool, *, folder: Path, progr
         "equal_time": {"spp_fold": SPP, "seconds_fold": budget, "spp_localpt": k, "seconds_localpt": t_eq1 + t_eq2,
                        "rmse_fold": rmse(fast + fold, reference, mask),
                        "rmse_localpt": rmse(eq_direct + eq_local, reference, mask)},
+        "local_equal_time": {"seconds_fold": t_fold, "spp_localpt": k_local, "seconds_localpt": t_eq_local,
+                             "rmse_fold": errors["direct_fold"], "rmse_localpt": rmse(direct + eq_local_only, reference,
+                                                                                       mask)},
         "seconds": {"direct": t_direct, "fold": t_fold, "fold_k4": t_fold_k4, "localpt": t_local, "pt": t_pt,
                     **({"asg_fit": t_asg_fit, "fold_asg": t_fold_asg} if seen else {})},
         "fold_detail": info,
@@ -195,23 +218,49 @@ def measure_mesh(name: str, path: Path, view, seen: bool, *, folder: Path, progr
 
 
 def frame_time(name: str, path: Path, view, *, progress=None) -> dict:
-    """One 1280×720 direct frame at 64 spp, without and with the fold term, in this process."""
+    """One 1280×720 direct frame at :data:`SPP`, without and with the fold term, in this
+    process; then, at that size, direct + fold against LocalPT at equal time, both against
+    direct + LocalPT's local light at :data:`FRAME_REF_SPP`."""
     from ... import params
     from ..mesh import load_mesh
-    from ..run import RenderOptions
+    from ..run import RenderOptions, prepare_render, render_passes
+    from .descriptors import cached_descriptors
 
     fabric = params.load(FABRIC)
     mesh = load_mesh(path)
-    options = RenderOptions(mode="direct", spp=64, size=(1280, 720), view=view, light=LIGHT, fold="off", seed=1)
-    if progress:
-        progress(f"fold bench: {name}: 1280×720 frame")
+    options = RenderOptions(mode="direct", spp=SPP, size=FRAME_SIZE, view=view, light=LIGHT, fold="off", seed=1)
+    say = progress or (lambda m: None)
+    say(f"fold bench: {name}: 1280×720 frame")
     _render(fabric, mesh, replace(options, size=(64, 36), spp=4, fold="on"))  # compile every kernel first
-    _, t_off, info_off = _render(fabric, mesh, options)
-    _, t_on, info_on = _render(fabric, mesh, replace(options, fold="on"))
+    off, t_off, info_off = _render(fabric, mesh, options)
+    on, t_on, info_on = _render(fabric, mesh, replace(options, fold="on"))  # the same seed: on - off is the term
     fold = info_on["timings"]["fold"]
+    scene = prepare_render(fabric, mesh, options).scene
+    local_scene = _localpt_scene(fabric, mesh, options, cached_descriptors(mesh.positions, mesh.faces,
+                                                                           normals=mesh.normals)[1].value)
+    say(f"fold bench: {name}: 1280×720 reference ({FRAME_REF_SPP} spp)")
+    direct, t_direct = _timed(render_passes, scene, FRAME_REF_SPP, 11)
+    local, t_local = _timed(render_passes, local_scene, FRAME_REF_SPP, 11)
+    reference = direct.astype(np.float64) + local
+    budget = info_on["timings"]["render"] + fold
+    k = max(1, int(budget / ((t_direct + t_local) / FRAME_REF_SPP)))
+    say(f"fold bench: {name}: 1280×720 LocalPT at equal time ({k} spp)")
+    eq, t_eq1 = _timed(render_passes, scene, k, 12)
+    eq_local, t_eq2 = _timed(render_passes, local_scene, k, 12)
+    k_local = max(1, int(fold / (t_local / FRAME_REF_SPP)))
+    say(f"fold bench: {name}: 1280×720 LocalPT's local light in the fold term's time ({k_local} spp)")
+    local_only, t_local_only = _timed(render_passes, local_scene, k_local, 13)
+    mask = garment_mask(direct)
     return {"mesh": name, "frame_seconds": info_off["timings"]["total"], "fold_seconds": fold,
             "ratio": fold / info_off["timings"]["total"], "render_seconds": info_off["timings"]["render"],
-            "fold_detail": info_on["fold_detail"]}
+            "fold_detail": info_on["fold_detail"],
+            "equal_time": {"spp_fold": SPP, "seconds_fold": budget, "spp_localpt": k, "seconds_localpt": t_eq1 + t_eq2,
+                           "reference_spp": FRAME_REF_SPP, "rmse_fold": rmse(on, reference, mask),
+                           "rmse_localpt": rmse(eq.astype(np.float64) + eq_local, reference, mask)},
+            "local_equal_time": {"seconds_fold": fold, "spp_localpt": k_local, "seconds_localpt": t_local_only,
+                                 "rmse_fold": rmse(direct + (on - off), reference, mask),
+                                 "rmse_localpt": rmse(direct + local_only, reference, mask),
+                                 "rmse_direct": rmse(direct.astype(np.float64), reference, mask)}}
 
 
 def run(quick: bool = False, progress=None, folder: Path | None = None) -> dict:
@@ -247,6 +296,11 @@ def summary(result: dict) -> dict:
         "seen_relative": mean(lambda r: r["rmse_localpt"]["direct_fold"] / r["local_rms"], True),
         "unseen_relative": mean(lambda r: r["rmse_localpt"]["direct_fold"] / r["local_rms"], False),
         "frame_ratio": {f["mesh"]: f["ratio"] for f in result["frames"]},
+        "beats_localpt_equal_time_1280x720": {f["mesh"]: f["equal_time"]["rmse_fold"] < f["equal_time"]["rmse_localpt"]
+                                              for f in result["frames"]},
+        "beats_localpt_local_light_equal_time": {
+            r["mesh"]: r["local_equal_time"]["rmse_fold"] < r["local_equal_time"]["rmse_localpt"]
+            for r in rows + [dict(f, mesh=f"{f['mesh']} 1280x720") for f in result["frames"]]},
     }
 
 
@@ -255,14 +309,16 @@ def table(result: dict) -> str:
     rows = result["meshes"]
     s = summary(result)
     lines = ["| mesh | seen | r (mm) | local light RMS | its noise | RMSE vs LocalPT: direct | direct + fold | gain | "
-             "RMSE vs PT: direct | direct + fold | equal time: fold (spp) | LocalPT (spp) |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "RMSE vs PT: direct | direct + fold | equal time: fold (spp) | LocalPT (spp) | local light at equal time: "
+             "fold term (s) | LocalPT (spp) |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         e, p, q = r["rmse_localpt"], r["rmse_pt"], r["equal_time"]
         lines.append(f"| {r['mesh']} | {'yes' if r['seen'] else 'no'} | {r['radius_m'] * 1000:.0f} | "
                      f"{r['local_rms']:.5f} | {r['reference_noise']:.5f} | {e['direct']:.5f} | {e['direct_fold']:.5f} | "
                      f"{e['direct'] / max(e['direct_fold'], 1e-12):.2f}× | {p['direct']:.5f} | {p['direct_fold']:.5f} | "
-                     f"{q['rmse_fold']:.5f} ({q['spp_fold']}) | {q['rmse_localpt']:.5f} ({q['spp_localpt']}) |")
+                     f"{q['rmse_fold']:.5f} ({q['spp_fold']}) | {q['rmse_localpt']:.5f} ({q['spp_localpt']}) | "
+                     + _local_cells(r["local_equal_time"]) + " |")
     lines += ["", "Table 3 form (architecture):", "",
               "| Architecture | Representation | Seen RMSE | Unseen RMSE | Time (s) | Params |", "|---|---|---|---|---|---|"]
     times = [r["seconds"]["fold"] for r in rows]
@@ -290,10 +346,20 @@ def table(result: dict) -> str:
             got = mean_of(key, seen, seconds)
             if got is not None:
                 lines.append(f"| {label} | {config} | {'Seen' if seen else 'Unseen'} | {got[0]:.5f} | {got[1]:.2f} |")
-    lines += ["", "| 1280×720 frame | direct, 64 spp (s) | fold term (s) | ratio |", "|---|---|---|---|"]
+    lines += ["", f"| {FRAME_SIZE[0]}×{FRAME_SIZE[1]} frame | direct, {SPP} spp (s) | fold term (s) | ratio | RMSE vs LocalPT ({FRAME_REF_SPP} "
+                  "spp): direct | equal time: direct + fold (spp) | LocalPT (spp) | local light at equal time: "
+                  "fold term (s) | LocalPT (spp) |", "|---|---|---|---|---|---|---|---|---|"]
     for f in result["frames"]:
-        lines.append(f"| {f['mesh']} | {f['frame_seconds']:.1f} | {f['fold_seconds']:.2f} | {f['ratio'] * 100:.0f} % |")
+        q, e = f["equal_time"], f["local_equal_time"]
+        lines.append(f"| {f['mesh']} | {f['frame_seconds']:.1f} | {f['fold_seconds']:.2f} | {f['ratio'] * 100:.0f} % | "
+                     f"{e['rmse_direct']:.5f} | {q['rmse_fold']:.5f} ({q['spp_fold']}) | {q['rmse_localpt']:.5f} "
+                     f"({q['spp_localpt']}) | {_local_cells(e)} |")
     return "\n".join(lines)
+
+
+def _local_cells(q: dict) -> str:
+    """Two table cells: the fold term's RMSE (its seconds), LocalPT's in that time (its spp)."""
+    return f"{q['rmse_fold']:.5f} ({q['seconds_fold']:.2f} s) | {q['rmse_localpt']:.5f} ({q['spp_localpt']})"
 
 
 def _register() -> None:
@@ -307,25 +373,34 @@ def _register() -> None:
 
 def picture(folder: Path, names: list[str], out: Path) -> Path:
     """A PNG of one row per mesh: direct | direct + fold | LocalPT | PT, each row at one exposure
-    (its PT's 99th percentile on the garment to 0.9), labelled."""
+    (its PT's 99th percentile on the garment to 0.9); then the fold term and LocalPT's local
+    light alone, both at one brighter exposure (their row's local light's 99th percentile to
+    0.9, the gain written under them): the light the fold term adds is a few percent of the
+    direct light, too little to see beside it. Labelled."""
     from PIL import Image, ImageDraw
 
     from ...io import atomic_path
     from ...photo import linear_to_srgb
 
-    labels = ("direct", "direct + fold", "LocalPT", "PT")
+    labels = ("direct", "direct + fold", "LocalPT", "PT", "fold term", "LocalPT local")
     rows = [np.load(Path(folder) / f"{name}.npz") for name in names]
     h, w = rows[0]["direct"].shape[:2]
     gap, label = 4, 14
-    sheet = Image.new("RGB", (4 * w + 5 * gap, len(rows) * (h + label + gap) + gap), (24, 24, 24))
+    sheet = Image.new("RGB", (6 * w + 7 * gap, len(rows) * (h + label + gap) + gap), (24, 24, 24))
     draw = ImageDraw.Draw(sheet)
     for r, (name, data) in enumerate(zip(names, rows)):
-        scale = 0.9 / max(float(np.percentile(data["pt"][data["mask"]], 99)), 1e-6)
-        for c, key in enumerate(("direct", "fold", "localpt", "pt")):
+        mask = data["mask"]
+        scale = 0.9 / max(float(np.percentile(data["pt"][mask], 99)), 1e-6)
+        local = data["localpt"] - data["direct"]
+        gain = 0.9 / max(float(np.percentile(local[mask], 99)), 1e-9)
+        images = (data["direct"] * scale, data["fold"] * scale, data["localpt"] * scale, data["pt"] * scale,
+                  (data["fold"] - data["direct"]) * gain, local * gain)
+        for c, image in enumerate(images):
             x, y = gap + c * (w + gap), gap + r * (h + label + gap)
-            srgb = linear_to_srgb(np.clip(data[key] * scale, 0.0, 1.0))
+            srgb = linear_to_srgb(np.clip(image, 0.0, 1.0))
             sheet.paste(Image.fromarray(np.clip(np.round(srgb * 255), 0, 255).astype(np.uint8)), (x, y))
-            draw.text((x + 2, y + h + 1), f"{name}: {labels[c]}" if c == 0 else labels[c], fill=(230, 230, 230))
+            text = f"{name}: {labels[c]}" if c == 0 else labels[c] + (f" (x{gain / scale:.0f})" if c >= 4 else "")
+            draw.text((x + 2, y + h + 1), text, fill=(230, 230, 230))
     with atomic_path(out) as tmp:
         sheet.save(tmp, format="PNG")
     return out
