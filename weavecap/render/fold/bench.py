@@ -118,6 +118,18 @@ def _localpt_scene(fabric, mesh, options, radius: float):
         modes.MODES.pop("fold-localpt", None)
 
 
+def _in_time(budget: float, seconds_per_spp: float, scenes, seed: int, announce=lambda spp: None):
+    """The sum of ``scenes``' renders at the largest spp that fits in ``budget`` seconds at
+    ``seconds_per_spp`` (at least 1): (image (H, W, 3) float64, spp, seconds taken)."""
+    from ..run import render_passes
+
+    spp = max(1, int(budget / seconds_per_spp))
+    announce(spp)
+    t = time.perf_counter()
+    image = sum(render_passes(scene, spp, seed).astype(np.float64) for scene in scenes)
+    return image, spp, time.perf_counter() - t
+
+
 def _render(fabric, mesh, options):
     from ..run import render_fabric
 
@@ -179,14 +191,12 @@ def measure_mesh(name: str, path: Path, view, seen: bool, *, folder: Path, progr
     # equal time: direct at SPP + the fold term, against LocalPT (direct + local) in the same time
     fast, t_fast = _timed(render_passes, scene, SPP, 2)
     budget = t_fast + t_fold
-    k = max(1, int(budget / ((t_direct + t_local) / REF_SPP)))
-    say(f"fold bench: {name}: LocalPT at equal time ({k} spp)")
-    eq_direct, t_eq1 = _timed(render_passes, scene, k, 3)
-    eq_local, t_eq2 = _timed(render_passes, local_scene, k, 3)
+    eq, k, t_eq = _in_time(budget, (t_direct + t_local) / REF_SPP, (scene, local_scene), 3,
+                           lambda k: say(f"fold bench: {name}: LocalPT at equal time ({k} spp)"))
     # the local light alone at equal time: the fold term against LocalPT's local light in the fold term's time
-    k_local = max(1, int(t_fold / (t_local / REF_SPP)))
-    say(f"fold bench: {name}: LocalPT's local light in the fold term's time ({k_local} spp)")
-    eq_local_only, t_eq_local = _timed(render_passes, local_scene, k_local, 4)
+    eq_local_only, k_local, t_eq_local = _in_time(
+        t_fold, t_local / REF_SPP, (local_scene,), 4,
+        lambda k: say(f"fold bench: {name}: LocalPT's local light in the fold term's time ({k} spp)"))
     reference = direct + local
     mask = garment_mask(direct, pt)
     errors = {"direct": rmse(direct, reference, mask), "direct_fold": rmse(direct + fold, reference, mask),
@@ -201,9 +211,8 @@ def measure_mesh(name: str, path: Path, view, seen: bool, *, folder: Path, progr
         "reference_noise": rmse(half_a, half_b, mask) / 2,  # RMS noise of the LocalPT reference (mean of halves)
         "rmse_localpt": errors,
         "rmse_pt": {"direct": rmse(direct, pt, mask), "direct_fold": rmse(direct + fold, pt, mask)},
-        "equal_time": {"spp_fold": SPP, "seconds_fold": budget, "spp_localpt": k, "seconds_localpt": t_eq1 + t_eq2,
-                       "rmse_fold": rmse(fast + fold, reference, mask),
-                       "rmse_localpt": rmse(eq_direct + eq_local, reference, mask)},
+        "equal_time": {"spp_fold": SPP, "seconds_fold": budget, "spp_localpt": k, "seconds_localpt": t_eq,
+                       "rmse_fold": rmse(fast + fold, reference, mask), "rmse_localpt": rmse(eq, reference, mask)},
         "local_equal_time": {"seconds_fold": t_fold, "spp_localpt": k_local, "seconds_localpt": t_eq_local,
                              "rmse_fold": errors["direct_fold"], "rmse_localpt": rmse(direct + eq_local_only, reference,
                                                                                        mask)},
@@ -243,20 +252,18 @@ def frame_time(name: str, path: Path, view, *, progress=None) -> dict:
     local, t_local = _timed(render_passes, local_scene, FRAME_REF_SPP, 11)
     reference = direct.astype(np.float64) + local
     budget = info_on["timings"]["render"] + fold
-    k = max(1, int(budget / ((t_direct + t_local) / FRAME_REF_SPP)))
-    say(f"fold bench: {name}: 1280×720 LocalPT at equal time ({k} spp)")
-    eq, t_eq1 = _timed(render_passes, scene, k, 12)
-    eq_local, t_eq2 = _timed(render_passes, local_scene, k, 12)
-    k_local = max(1, int(fold / (t_local / FRAME_REF_SPP)))
-    say(f"fold bench: {name}: 1280×720 LocalPT's local light in the fold term's time ({k_local} spp)")
-    local_only, t_local_only = _timed(render_passes, local_scene, k_local, 13)
+    eq, k, t_eq = _in_time(budget, (t_direct + t_local) / FRAME_REF_SPP, (scene, local_scene), 12,
+                           lambda k: say(f"fold bench: {name}: 1280×720 LocalPT at equal time ({k} spp)"))
+    local_only, k_local, t_local_only = _in_time(
+        fold, t_local / FRAME_REF_SPP, (local_scene,), 13,
+        lambda k: say(f"fold bench: {name}: 1280×720 LocalPT's local light in the fold term's time ({k} spp)"))
     mask = garment_mask(direct)
     return {"mesh": name, "frame_seconds": info_off["timings"]["total"], "fold_seconds": fold,
             "ratio": fold / info_off["timings"]["total"], "render_seconds": info_off["timings"]["render"],
             "fold_detail": info_on["fold_detail"],
-            "equal_time": {"spp_fold": SPP, "seconds_fold": budget, "spp_localpt": k, "seconds_localpt": t_eq1 + t_eq2,
+            "equal_time": {"spp_fold": SPP, "seconds_fold": budget, "spp_localpt": k, "seconds_localpt": t_eq,
                            "reference_spp": FRAME_REF_SPP, "rmse_fold": rmse(on, reference, mask),
-                           "rmse_localpt": rmse(eq.astype(np.float64) + eq_local, reference, mask)},
+                           "rmse_localpt": rmse(eq, reference, mask)},
             "local_equal_time": {"seconds_fold": fold, "spp_localpt": k_local, "seconds_localpt": t_local_only,
                                  "rmse_fold": rmse(direct + (on - off), reference, mask),
                                  "rmse_localpt": rmse(direct + local_only, reference, mask),
