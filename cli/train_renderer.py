@@ -131,7 +131,7 @@ def train_renderer(work: Path, out_dir: Path | None, do_woven: bool, do_fold: bo
 
     \b
     Examples:
-      weavecap train-renderer                  # both shipped networks (woven about 65 min, fold 15 min)
+      weavecap train-renderer                  # both shipped networks (woven about 65 min, fold 11)
       weavecap train-renderer --no-woven       # the fold renderer's BLIDF alone
       weavecap train-renderer --work /tmp/r -o /tmp/weights --no-fold --fabrics 4 --steps 20
       weavecap train-renderer --work /tmp/r -o /tmp/weights --no-woven --lights 4 --per-light 20 --epochs 2
