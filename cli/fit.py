@@ -7,7 +7,8 @@ from pathlib import Path
 
 import click
 
-from .options import force_option, quiet_option, seed_option, verbose_option
+from .options import (check_batch_options, force_option, jobs_option, quiet_option, scheduler_option, seed_option,
+                      verbose_option)
 
 
 @click.command(context_settings={"max_content_width": 100})
@@ -21,11 +22,8 @@ from .options import force_option, quiet_option, seed_option, verbose_option
                    "takes the one of room light and front-only that explains the photo better.")
 @click.option("--budget", "budget_s", type=click.FloatRange(min=1), default=None,
               help="Stop each photo's fit after this many seconds (the best result so far is kept).")
-@click.option("--jobs", type=click.IntRange(min=1, max=64), default=1, show_default=True,
-              help="Photos fitted in parallel processes on this machine.")
-@click.option("--scheduler", metavar="ADDRESS",
-              help="Run the batch on a Dask cluster: a scheduler's address (tcp://host:8786, see `dask scheduler`), "
-                   "or local:N for N workers here. A photo whose worker dies is retried once.")
+@jobs_option("Photos fitted")
+@scheduler_option("photo")
 @click.option("--start-from", "start_from", type=click.Path(dir_okay=False, path_type=Path),
               help="Warm start: begin the fit at this params.json instead of the pre-estimate.")
 @click.option("--pattern", "pattern_file", type=click.Path(dir_okay=False, path_type=Path),
@@ -63,7 +61,6 @@ def fit(photos, out, quality, light, budget_s, jobs, scheduler, start_from, patt
     """
     from weavecap import batch as wbatch
     from weavecap import params as wparams
-    from weavecap.errors import InputError
     from weavecap.patterns import load_pattern
     from weavecap.pipeline import CaptureOptions, FitJob
 
@@ -84,11 +81,7 @@ def fit(photos, out, quality, light, budget_s, jobs, scheduler, start_from, patt
         else:
             say(f"{where} {photo}: {event.line['status']}: {record.get('reason')}", error=True)
 
-    if scheduler and jobs > 1:
-        raise InputError("--jobs and --scheduler exclude each other: --jobs N runs N processes here, "
-                         "--scheduler local:N runs N Dask workers here")
-    if scheduler:
-        wbatch.local_workers(scheduler)  # a bad local:N is a usage error before any work
+    check_batch_options(jobs, scheduler)
     job = FitJob(CaptureOptions(quality=quality, light=light, seed=seed, budget_s=budget_s,
                                 start_from=wparams.load(start_from) if start_from else None,
                                 pattern=load_pattern(pattern_file) if pattern_file else None,

@@ -17,6 +17,38 @@ pattern_option = click.option(
          "or a text file of 0/1 rows (1 = weft over warp).")
 
 
+def jobs_option(done: str):
+    """``--jobs N`` of a batch command: ``done`` says what happens to its inputs (``"Photos fitted"``)."""
+    return click.option("--jobs", type=click.IntRange(min=1, max=64), default=1, show_default=True,
+                        help=f"{done} in parallel processes on this machine.")
+
+
+def scheduler_option(item: str):
+    """``--scheduler ADDRESS`` of a batch command (:func:`weavecap.batch.run`); ``item`` names one input."""
+    return click.option("--scheduler", metavar="ADDRESS",
+                        help="Run the batch on a Dask cluster: a scheduler's address (tcp://host:8786, see "
+                             f"`dask scheduler`), or local:N for N workers here. A {item} whose worker dies is "
+                             "retried once.")
+
+
+def check_batch_options(jobs: int, scheduler: str | None) -> None:
+    """Refuse ``--jobs`` with ``--scheduler`` and a bad ``local:N`` before any work.
+
+    Raises
+    ------
+    InputError
+        Both given, or ``local:`` with a bad count.
+    """
+    from weavecap.batch import local_workers
+    from weavecap.errors import InputError
+
+    if scheduler and jobs > 1:
+        raise InputError("--jobs and --scheduler exclude each other: --jobs N runs N processes here, "
+                         "--scheduler local:N runs N Dask workers here")
+    if scheduler:
+        local_workers(scheduler)
+
+
 def parse_tiles(ctx, param, value: str) -> tuple[int, int]:
     """Parse ``NxM`` (rows x columns of repeats), e.g. ``4x4``."""
     try:

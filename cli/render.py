@@ -8,7 +8,8 @@ from pathlib import Path
 
 import click
 
-from .options import force_option, pattern_option, quiet_option, seed_option, verbose_option
+from .options import (check_batch_options, force_option, jobs_option, pattern_option, quiet_option, scheduler_option,
+                      seed_option, verbose_option)
 
 IMAGE_SUFFIXES = (".png", ".exr", ".tif", ".tiff")
 
@@ -42,7 +43,7 @@ def _mode_help() -> str:
                 metavar="PARAMS.json... MESH")
 @click.option("-o", "--output", "out", required=True, type=click.Path(path_type=Path),
               help="Image to write (.png sRGB, .exr linear, .tif 16-bit); with several PARAMS, a folder "
-                   "(one PNG per params file, named after it).")
+                   "(OUT/<name>/render.png per params file, named after it, and OUT/summary.jsonl).")
 @click.option("--mode", default="neural", show_default=True, help=_mode_help())
 @click.option("--spp", type=click.IntRange(1, 65536), default=None,
               help="Samples per pixel  [default: 1 for neural (pixel centres), 64 for the others]")
@@ -75,7 +76,10 @@ def _mode_help() -> str:
                    "needs it (auto), always, or never.")
 @click.option("--noise/--no-noise", default=True, show_default=True,
               help="Show the irregularity noise stored in the params (§6.3), if any.")
-@click.option("--sheet", is_flag=True, help="With several PARAMS: also write OUT/sheet.png, all images side by side.")
+@click.option("--sheet", is_flag=True,
+              help="With several PARAMS: also write OUT/sheet.png, the images finished so far side by side.")
+@jobs_option("With several PARAMS: images rendered")
+@scheduler_option("params file")
 @click.option("--json", "as_json", is_flag=True, help="Print what was rendered and the timings as JSON.")
 @pattern_option
 @seed_option
@@ -83,8 +87,8 @@ def _mode_help() -> str:
 @verbose_option
 @quiet_option
 def render(inputs, out, mode, spp, size, view, camera, fov_deg, margin, light, ground, units, object_name,
-           pitch_mm, angle_deg, offset, max_depth, fold, noise, sheet, as_json, pattern_file, seed, force, verbose,
-           quiet):
+           pitch_mm, angle_deg, offset, max_depth, fold, noise, sheet, jobs, scheduler, as_json, pattern_file, seed,
+           force, verbose, quiet):
     """Render captured fabrics (PARAMS.json from `weavecap fit`) on a garment MESH (OBJ or PLY).
 
     The fabric is tiled over the mesh's UVs at its physical size (the yarn pitch), as the
@@ -94,18 +98,23 @@ def render(inputs, out, mode, spp, size, view, camera, fov_deg, margin, light, g
     frames the mesh's bounding box. The same inputs, options and --seed give the same image,
     bit for bit.
 
+    Several PARAMS are a batch, like `weavecap fit`'s: OUT/<name>/render.png and render.json
+    for each, OUT/summary.jsonl one line per params file as each finishes, --jobs or --scheduler
+    to render several at once. A bad params file does not stop the others; the batch exits with
+    the worst status. Run it again to resume: finished renders are skipped (unless --force).
+
     \b
     Examples:
       weavecap render swatch/params.json dress.obj -o dress.png
       weavecap render swatch/params.json towel.obj -o towel.exr --view 30,20 --light sun --spp 256
       weavecap render a.json b.json c.json skirt.obj -o looks/ --sheet --pitch-mm 0.25
+      weavecap render catalogue/*/params.json skirt.obj -o looks/ --jobs 2
       weavecap render swatch/params.json swatch.obj -o check.png --light both --camera orthographic --margin 0
       weavecap render fabric.json scan.ply -o scan.png --units mm --object Shirt --json
     """
-    from weavecap import params as wparams
     from weavecap.errors import InputError
     from weavecap.io import refuse_overwrite
-    from weavecap.photo import save_image, supported_output
+    from weavecap.photo import supported_output
 
     if len(inputs) < 2:
         raise click.UsageError("give at least one PARAMS.json and a MESH")
@@ -114,84 +123,105 @@ def render(inputs, out, mode, spp, size, view, camera, fov_deg, margin, light, g
     if many:
         if out.suffix.lower() in IMAGE_SUFFIXES or out.is_file():
             raise InputError(f"{out}: with several PARAMS files, -o names a folder (one image each)")
-        targets = _targets(params_files, out)
+        check_batch_options(jobs, scheduler)
     else:
+        for name, given in (("--sheet", sheet), ("--jobs", jobs > 1), ("--scheduler", scheduler)):
+            if given:
+                raise InputError(f"{name} needs several PARAMS files")
         supported_output(out)
-        targets = [out]
-    if sheet and not many:
-        raise InputError("--sheet needs several PARAMS files")
-    for target in targets + ([out / "sheet.png"] if sheet else []):
-        refuse_overwrite(target, force=force)
-    fabrics = [wparams.load(p) for p in params_files]  # every input checked before any work
+        refuse_overwrite(out, force=force)
+
+    from weavecap.render.job import load_fabric
+    from weavecap.render.modes import mode as find_mode
+    from weavecap.render.run import RenderOptions
+    from weavecap.render.scene import parse_view
+
+    pattern = None
     if pattern_file is not None:
         from weavecap.patterns import load_pattern
 
         pattern = load_pattern(pattern_file)
-        fabrics = [f.replace({"pattern": pattern}) for f in fabrics]
-
-    from weavecap.render.mesh import load_mesh
-    from weavecap.render.run import RenderOptions, render_fabric
-    from weavecap.render.scene import parse_view
-
-    from weavecap.render.modes import mode as find_mode
-
+    fabric = None if many else load_fabric(params_files[0], pattern)  # checked before any work
     spp = spp or find_mode(mode).spp
     options = RenderOptions(mode=mode, spp=spp, size=size, view=parse_view(view), camera=camera, fov_deg=fov_deg,
                             margin=margin, light=light, pitch_mm=pitch_mm, angle_deg=angle_deg, offset=offset,
                             max_depth=max_depth, seed=seed, ground=ground, noise=noise, fold=fold)
-    show_progress = not quiet and (sys.stderr.isatty() or verbose > 0)
 
-    def say(message: str, level: int = 0) -> None:
-        if not quiet and verbose >= level:
+    def say(message: str, level: int = 0, error: bool = False) -> None:
+        if error or (not quiet and verbose >= level):
             click.echo(f"weavecap render: {message}", err=True)
+
+    from weavecap.render.mesh import load_mesh
 
     mesh = load_mesh(mesh_file, units=units, object_name=object_name)
     say(f"{mesh_file}: {len(mesh.faces)} triangles, {', '.join(mesh.objects)}, UVs from the {mesh.uv_source}, "
         f"stretch {mesh.stretch['before']:.3f} -> {mesh.stretch['after']:.3f}", level=1)
     for note in mesh.notes:
         say(f"{mesh_file}: {note}")
-    rendered, images = [], []
-    for index, (params_file, fabric, target) in enumerate(zip(params_files, fabrics, targets), 1):
-        where = f"[{index}/{len(targets)}] " if many else ""
-
-        def progress(done, total, where=where, name=params_file.name):
-            if show_progress:
-                end = "\n" if done == total else ""
-                click.echo(f"\rweavecap render: {where}{name}: {done}/{total} samples per pixel", err=True, nl=False)
-                if end:
-                    click.echo("", err=True)
-
-        result = render_fabric(fabric, mesh, options, progress=progress)
-        save_image(target, result.image)
-        images.append(result.image)
-        for note in result.info["notes"]:
-            say(f"{params_file}: {note}")
-        t = result.info["timings"]
-        say(f"{where}wrote {target} ({size[0]}x{size[1]}, {mode}, {spp} spp, pitch {result.info['pitch_mm']:g} mm, "
-            f"{t['total']:.1f} s: bake {t['bake']:.1f} s, render {t['render']:.1f} s)")
-        rendered.append({"params": str(params_file), "output": str(target), **result.info})
-    if sheet:
-        from weavecap.io import atomic_path
-        from weavecap.render.sheet import contact_sheet
-
-        with atomic_path(out / "sheet.png") as tmp:
-            contact_sheet(images, [p.stem if p.stem != "params" else p.resolve().parent.name
-                                   for p in params_files]).save(tmp, format="PNG")
-        say(f"wrote {out / 'sheet.png'}")
+    mesh_info = {"path": str(mesh_file), "triangles": int(len(mesh.faces)), "objects": mesh.objects,
+                 "uv_source": mesh.uv_source, "stretch": mesh.stretch, "area_m2": mesh.area,
+                 "bounds_m": mesh.bounds.tolist(), "notes": mesh.notes}
+    if many:
+        doc, status = _render_batch(params_files, mesh, options, pattern, out, sheet=sheet, jobs=jobs,
+                                    scheduler=scheduler, force=force, say=say)
+    else:
+        doc, status = _render_one(params_files[0], fabric, mesh, options, out,
+                                  progress=not quiet and (sys.stderr.isatty() or verbose > 0), say=say)
     if as_json:
-        mesh_info = {"path": str(mesh_file), "triangles": int(len(mesh.faces)), "objects": mesh.objects,
-                     "uv_source": mesh.uv_source, "stretch": mesh.stretch, "area_m2": mesh.area,
-                     "bounds_m": mesh.bounds.tolist(), "notes": mesh.notes}
-        click.echo(json.dumps({"mesh": mesh_info, "images": rendered,
-                               "sheet": str(out / "sheet.png") if sheet else None}, indent=1))
+        click.echo(json.dumps({"mesh": mesh_info, **doc}, indent=1))
+    if status:
+        raise click.exceptions.Exit(status)
 
 
-def _targets(params_files: list[Path], out: Path) -> list[Path]:
-    """One PNG per params file in ``out``: named after the file, or after its folder when the
-    stems repeat (``a/params.json``, ``b/params.json`` → ``a.png``, ``b.png``)."""
-    stems = [p.stem for p in params_files]
-    if len(set(stems)) < len(stems):
-        stems = [p.resolve().parent.name + ("" if p.stem == "params" else f"_{p.stem}") for p in params_files]
-    if len(set(stems)) < len(stems):
-        stems = [f"{i:03d}_{s}" for i, s in enumerate(stems, 1)]
-    return [out / f"{s}.png" for s in stems]
+def _wrote(output, info: dict, timings: dict) -> str:
+    """The line that says an image was written: what, how and how long."""
+    w, h = info["size"]
+    return (f"wrote {output} ({w}x{h}, {info['mode']}, {info['spp']} spp, pitch {info['pitch_mm']:g} mm, "
+            f"{timings['total']:.1f} s: bake {timings['bake']:.1f} s, render {timings['render']:.1f} s)")
+
+
+def _render_one(params_file, fabric, mesh, options, out, *, progress: bool, say) -> tuple[dict, int]:
+    """One params file straight to the image ``out`` (no record, no summary)."""
+    from weavecap.photo import save_image
+    from weavecap.render.run import render_fabric
+
+    def show(done, total):
+        if progress:
+            click.echo(f"\rweavecap render: {params_file.name}: {done}/{total} samples per pixel", err=True, nl=False)
+            if done == total:
+                click.echo("", err=True)
+
+    result = render_fabric(fabric, mesh, options, progress=show)
+    save_image(out, result.image)
+    for note in result.info["notes"]:
+        say(f"{params_file}: {note}")
+    say(_wrote(out, result.info, result.info["timings"]))
+    return {"images": [{"params": str(params_file), "output": str(out), **result.info}], "sheet": None}, 0
+
+
+def _render_batch(params_files, mesh, options, pattern, out, *, sheet: bool, jobs: int, scheduler, force: bool,
+                  say) -> tuple[dict, int]:
+    """Several params files as a batch (:mod:`weavecap.batch`, :class:`weavecap.render.job.RenderJob`)."""
+    from weavecap import batch as wbatch
+    from weavecap.render.job import SHEET, RenderJob, folder_names, write_sheet
+
+    def report(event: wbatch.Event) -> None:
+        params_file, record, where = event.item.source, event.record, f"[{event.index}/{event.total}]"
+        if event.kind == "skipped":
+            say(f"{params_file}: already done ({record['status']}), skipped; --force redoes it")
+        elif event.kind == "started":
+            say(f"{where} {params_file}: rendering ({options.mode}, {options.spp} spp)", level=1)
+        elif record.get("status") == "ok":
+            for note in record["notes"]:
+                say(f"{params_file}: {note}")
+            say(f"{where} {_wrote(record['output'], record, record['timings_s'])}")
+        else:
+            say(f"{where} {params_file}: {event.line['status']}: {record.get('reason')}", error=True)
+
+    job = RenderJob(mesh=mesh, options=options, pattern=pattern)
+    batch = wbatch.plan(job, params_files, out, force=force, names=folder_names(params_files))
+    result = wbatch.run(batch, jobs=jobs, scheduler=scheduler, on_event=report)
+    on_sheet = write_sheet(batch, out / SHEET) if sheet else []
+    if on_sheet:
+        say(f"wrote {out / SHEET} ({len(on_sheet)} of {len(params_files)} images)")
+    return {"images": result.lines, "sheet": str(out / SHEET) if on_sheet else None}, result.exit

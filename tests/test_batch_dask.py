@@ -1,6 +1,7 @@
-"""`weavecap fit --scheduler`: a batch on a Dask cluster of two workers on 127.0.0.1, started
-here as a user would (`dask scheduler`, `dask worker`), with workers dying mid-batch; and
-`--scheduler local:2` giving the same results as `--jobs 2`."""
+"""`weavecap fit --scheduler` and `weavecap render --scheduler`: a batch on a Dask cluster of
+two workers on 127.0.0.1, started here as a user would (`dask scheduler`, `dask worker`), with
+workers dying mid-batch; and `--scheduler local:2` giving the same results as `--jobs 2` (fit)
+or a run in this process (render: the same images bit for bit)."""
 
 from __future__ import annotations
 
@@ -10,18 +11,23 @@ import signal
 import subprocess
 import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from conftest import bad_params_text
 
 from weavecap.cli.main import cli
 from weavecap.photo import save_png
 
 HERE = Path(__file__).resolve().parent
 PLAIN = HERE.parent / "fixtures" / "params" / "plain.json"
+MESH = HERE.parent / "fixtures" / "meshes" / "drape.obj"
 FIT = ["--quality", "draft", "--budget", "1", "--seed", "2"]
+RENDER = ["--size", "32x24", "--spp", "2", "--mode", "direct", "--pitch-mm", "2", "--seed", "2"]
 
 
 def weavecap(*args):
@@ -48,8 +54,59 @@ def tiny_photos(folder: Path, names: dict[str, str]) -> list[Path]:
     return photos
 
 
+def params_files(folder: Path, names: dict[str, str]) -> list[Path]:
+    """Params files by kind: ``plain`` the plain weave fixture, ``bad`` one with an IOR out of
+    range (invalid)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    files = []
+    for name, kind in names.items():
+        path = folder / f"{name}.json"
+        path.write_text(PLAIN.read_text() if kind == "plain" else bad_params_text({"specular.ior": 3.5}))
+        files.append(path)
+    return files
+
+
+@dataclass(frozen=True)
+class Command:
+    """A batch command as these tests drive it.
+
+    Attributes
+    ----------
+    inputs : (folder, {name: kind}) → the input files, made there
+    args : (inputs, out) → the command's arguments
+    key : the summary line's field that names the input
+    files : what an ``ok`` input leaves in its folder
+    record : the one of them that says how the input ended (a failure leaves it alone)
+    same : the file that two inputs of the same content have the same, byte for byte
+    """
+
+    name: str
+    inputs: Callable[[Path, dict], list[Path]]
+    args: Callable[[list[Path], Path], list]
+    key: str
+    files: tuple[str, ...]
+    record: str
+    same: str
+
+    def run(self, inputs: list[Path], out: Path, *options):
+        return weavecap(*self.args(inputs, out), *options)
+
+
+FIT_CMD = Command("fit", tiny_photos, lambda inputs, out: ["fit", *inputs, "-o", out, *FIT], "photo",
+                  ("params.json", "report.json", "compare.png", "rectified.png", "grid.png", "loss.png"), "report.json",
+                  "params.json")
+RENDER_CMD = Command("render", params_files, lambda inputs, out: ["render", *inputs, MESH, "-o", out, *RENDER],
+                     "params", ("render.png", "render.json"), "render.json", "render.png")
+
+
 def summary(out: Path) -> list[dict]:
     return [json.loads(line) for line in (out / "summary.jsonl").read_text().splitlines()]
+
+
+def comparable(line: dict, out: Path) -> dict:
+    """A summary line but what differs between two runs: the seconds, and ``out`` in paths."""
+    return {k: None if k == "seconds" else str(Path(v).relative_to(out)) if k in ("folder", "output") else v
+            for k, v in line.items()}
 
 
 @pytest.fixture
@@ -87,52 +144,75 @@ def cluster(tmp_path):
         logs.close()
 
 
-def test_workers_that_die_lose_only_their_photo_which_is_retried_once(cluster, tmp_path):
-    """Five photos on two workers: die_once kills its worker, is retried and fitted; die_always
-    kills a worker on each of its two tries and is reported failed. Every photo ends with one
-    summary line and its own files; running again skips what is done and retries the failure."""
+# command, {input: kind}, the statuses they end with, those finished (skipped when run again)
+DYING = [
+    (FIT_CMD, {"a_plain": "plain", "die_once": "plain", "b_noise": "noise", "die_always": "noise",
+               "c_corrupt": "corrupt"},
+     {"a_plain": "ok", "die_once": "ok", "b_noise": "rejected", "die_always": "failed", "c_corrupt": "rejected"}),
+    (RENDER_CMD, {"a_plain": "plain", "die_once": "plain", "b_bad": "bad", "die_always": "plain"},
+     {"a_plain": "ok", "die_once": "ok", "b_bad": "invalid", "die_always": "failed"}),
+]
+
+
+@pytest.mark.parametrize("command, kinds, statuses", DYING, ids=[case[0].name for case in DYING])
+def test_workers_that_die_lose_only_their_input_which_is_retried_once(cluster, tmp_path, command, kinds, statuses):
+    """Inputs on two workers: die_once kills its worker, is retried and done; die_always kills
+    a worker on each of its two tries and is reported failed. Every input ends with one summary
+    line and its own files; running again skips what is finished and retries the failure."""
     address, deaths = cluster
-    photos = tiny_photos(tmp_path / "photos", {"a_plain": "plain", "die_once": "plain", "b_noise": "noise",
-                                               "die_always": "noise", "c_corrupt": "corrupt"})
+    inputs = command.inputs(tmp_path / "inputs", kinds)
     out = tmp_path / "out"
-    result = weavecap("fit", *photos, "-o", out, "--scheduler", address, *FIT)
+    result = command.run(inputs, out, "--scheduler", address)
     assert result.exit_code == 1, result.output  # failed is the most severe outcome
-    lines = {Path(line["photo"]).stem: line for line in summary(out)}
-    assert len(summary(out)) == 5 and set(lines) == {p.stem for p in photos}  # each photo once
-    assert {k: v["status"] for k, v in lines.items()} == {
-        "a_plain": "ok", "die_once": "ok", "b_noise": "rejected", "die_always": "failed", "c_corrupt": "rejected"}
+    lines = {Path(line[command.key]).stem: line for line in summary(out)}
+    assert len(summary(out)) == len(inputs) and set(lines) == {p.stem for p in inputs}  # each input once
+    assert {k: v["status"] for k, v in lines.items()} == statuses
     assert "worker died on each of 2 tries" in lines["die_always"]["reason"]
     assert sorted(p.name.split(".")[0] for p in deaths.iterdir()) == ["die_always", "die_always", "die_once"]
     for name in ("a_plain", "die_once"):
-        assert lines[name]["weave"] == "plain"
-        for file in ("params.json", "report.json", "compare.png", "rectified.png", "grid.png", "loss.png"):
+        assert lines[name]["status"] == "ok"
+        for file in command.files:
             assert (out / name / file).is_file(), (name, file)
-    assert json.loads((out / "die_always" / "report.json").read_text())["status"] == "failed"
+    if command is FIT_CMD:
+        assert lines["a_plain"]["weave"] == lines["die_once"]["weave"] == "plain"
+    assert json.loads((out / "die_always" / command.record).read_text())["status"] == "failed"
     assert not [p for p in out.rglob(".*")]  # no temporary file left behind
-    assert (out / "a_plain" / "params.json").read_text() == (out / "die_once" / "params.json").read_text()
+    assert (out / "a_plain" / command.same).read_bytes() == (out / "die_once" / command.same).read_bytes()
 
-    mtimes = {p: p.stat().st_mtime_ns for p in out.rglob("*") if p.is_file() and "die_always" not in str(p)
-              and p.name != "summary.jsonl"}
-    again = weavecap("fit", *photos, "-o", out, "--scheduler", address, *FIT)
-    assert again.exit_code == 1 and again.output.count("already done") == 4
-    assert [line["photo"] for line in summary(out)].count(str(photos[3])) == 1 and len(summary(out)) == 5
+    finished = [name for name, status in statuses.items() if status in ("ok", "rejected")]
+    mtimes = {p: p.stat().st_mtime_ns for name in finished for p in (out / name).rglob("*")}
+    again = command.run(inputs, out, "--scheduler", address)
+    assert again.exit_code == 1 and again.output.count("already done") == len(finished)
+    assert [Path(line[command.key]).stem for line in summary(out)].count("die_always") == 1
+    assert len(summary(out)) == len(inputs)
     assert len(list(deaths.glob("die_always.*"))) == 4  # retried, once more
-    assert {p: p.stat().st_mtime_ns for p in mtimes} == mtimes  # finished photos untouched
+    assert {p: p.stat().st_mtime_ns for p in mtimes} == mtimes  # finished inputs untouched
 
 
-def test_a_local_cluster_gives_what_jobs_gives(tmp_path):
-    """The same photos with --scheduler local:2 and --jobs 2: the same summary lines (but the
-    seconds) and the same params.json."""
-    photos = tiny_photos(tmp_path / "photos", {"a_plain": "plain", "b_noise": "noise"})
+# command, {input: kind}, the other way to run it, the exit status, the statuses in input order
+LOCAL = [
+    (FIT_CMD, {"a_plain": "plain", "b_noise": "noise"}, ["--jobs", "2"], 3, ["ok", "rejected"]),
+    (RENDER_CMD, {"a_plain": "plain", "b_bad": "bad", "c_plain": "plain"}, [], 2, ["ok", "invalid", "ok"]),
+]
+
+
+@pytest.mark.parametrize("command, kinds, other, exit_code, statuses", LOCAL, ids=[case[0].name for case in LOCAL])
+def test_a_local_cluster_gives_what_a_run_here_gives(tmp_path, command, kinds, other, exit_code, statuses):
+    """The same inputs with --scheduler local:2 and here (fit: --jobs 2; render: in this
+    process): the same summary lines (but the seconds and the folder) and the same files of
+    each finished input, byte for byte (render: the same images bit for bit)."""
+    inputs = command.inputs(tmp_path / "inputs", kinds)
     runs = {}
-    for name, how in (("dask", ["--scheduler", "local:2"]), ("jobs", ["--jobs", "2"])):
-        result = weavecap("fit", *photos, "-o", tmp_path / name, *how, *FIT)
-        assert result.exit_code == 3, result.output
-        runs[name] = sorted((dict(line, seconds=None, folder=Path(line["folder"]).name) for line in
-                             summary(tmp_path / name)), key=lambda line: line["photo"])
-    assert runs["dask"] == runs["jobs"] and [line["status"] for line in runs["dask"]] == ["ok", "rejected"]
-    assert (tmp_path / "dask" / "a_plain" / "params.json").read_text() == \
-        (tmp_path / "jobs" / "a_plain" / "params.json").read_text()
+    for name, how in (("dask", ["--scheduler", "local:2"]), ("here", other)):
+        result = command.run(inputs, tmp_path / name, *how)
+        assert result.exit_code == exit_code, result.output
+        runs[name] = sorted((comparable(line, tmp_path / name) for line in summary(tmp_path / name)),
+                            key=lambda line: line[command.key])
+    assert runs["dask"] == runs["here"] and [line["status"] for line in runs["dask"]] == statuses
+    for line in runs["dask"]:
+        if line["status"] == "ok":
+            assert (tmp_path / "dask" / line["folder"] / command.same).read_bytes() == \
+                (tmp_path / "here" / line["folder"] / command.same).read_bytes()
 
 
 @pytest.mark.parametrize("args, message", [

@@ -12,7 +12,6 @@ test in standard errors (SE) of the estimate plus a small absolute margin.
 
 from __future__ import annotations
 
-import dataclasses
 import itertools
 
 import numpy as np
@@ -24,6 +23,7 @@ mi = mitsuba()
 import drjit as dr  # noqa: E402  (after the backend chose libLLVM)
 
 from weavecap.model import bysdf as b  # noqa: E402
+from shading_batch import ShadingBatch  # noqa: E402
 
 WHITE = dict(reflection=1.0, transmission=0.3, transmission_exit=0.5, attenuation=0.0, body_attenuation=0.0,
              body_reflection=1.0, body_subsurface=1.0, ply_shadow=0.0, fiber_shadow=0.0, coefficient=0.5)
@@ -40,30 +40,13 @@ LOBES = {
 REFLECTING = {"specular-reflection", "body-reflection"}
 
 
-class Batch:
+class Batch(ShadingBatch):
     """Parameter sets, each repeated over ``lanes`` lanes, as the arguments of the BYSDF functions."""
 
     def __init__(self, configs: list[dict], lanes: int, *, grad: bool = False):
-        self.count, self.lanes = len(configs), lanes
-        values = [{**b.DEFAULTS, **c} for c in configs]
-        self.leaves = []
-
-        def column(key):
-            data = np.repeat(np.array([v[key] for v in values], dtype=np.float32), lanes)
-            x = mi.Color3f(data, data, data) if key in b.COLOUR_KEYS else mi.Float(data)
-            if grad:
-                dr.enable_grad(x)
-                self.leaves.append((key, x))
-            return x
-
-        self.p = b.Shading(**{f.name: column(f.name) for f in dataclasses.fields(b.Shading)})
-        self.body_reflection = column("body_reflection")
-        self.body_subsurface = column("body_subsurface")
-
-    def per_config(self, x) -> np.ndarray:
-        """(configs, lanes) array of a Float, or of a colour's first channel."""
-        a = np.asarray(x)
-        return (a[0] if a.ndim == 2 else a).reshape(self.count, self.lanes)
+        super().__init__(configs, lanes, grad=grad)
+        self.body_reflection = self.column("body_reflection")
+        self.body_subsurface = self.column("body_subsurface")
 
     def eval(self, wv, wl, uv=None):
         uv = mi.Point2f(0.3, 0.2) if uv is None else uv

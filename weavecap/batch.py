@@ -1,18 +1,20 @@
 """Batches: many inputs, one output folder each, one ``summary.jsonl`` line per input.
 
-DESIGN.md's contract for a command that takes several inputs (``weavecap fit PHOTO...``, and
-``render`` batches the same way): one input writes into ``OUT`` itself; several write into
-``OUT/<stem>`` each (``<stem>-2``, ... when stems repeat) and append one line per input to
-``OUT/summary.jsonl`` as each finishes. A bad input does not stop the batch; the batch exits
-with its most severe outcome (:data:`weavecap.errors.OUTCOMES`). Nothing is lost: a folder
-holding another run's results is refused unless ``force``; run again to resume — finished
-inputs (their record says ``ok`` or ``rejected`` and names the same file by its SHA-256) are
-skipped, failed ones are tried again, and each input keeps exactly one summary line.
+DESIGN.md's contract for a command that takes several inputs (``weavecap fit PHOTO...``,
+``weavecap render PARAMS... MESH``): one input writes into ``OUT`` itself; several write into
+``OUT/<stem>`` each (``<stem>-2``, ... when stems repeat, or names the command gives) and
+append one line per input to ``OUT/summary.jsonl`` as each finishes. A bad input does not stop
+the batch; the batch exits with its most severe outcome (:data:`weavecap.errors.OUTCOMES`).
+Nothing is lost: a folder holding another run's results is refused unless ``force``; run again
+to resume — finished inputs (their record says ``ok`` or ``rejected`` and names the same file
+by its SHA-256) are skipped, failed ones are tried again, and each input keeps exactly one
+summary line.
 
-What is done to each input is a :class:`Job` (``weavecap.pipeline.FitJob`` for ``fit``); this
-module only plans, runs and records. Work runs in this process, in a local process pool
-(``jobs``), or on a Dask distributed cluster (``scheduler``: an address, or ``local:N``), where
-a photo whose worker dies is tried once more on another, then reported failed.
+What is done to each input is a :class:`Job` (``weavecap.pipeline.FitJob`` for ``fit``,
+``weavecap.render.job.RenderJob`` for ``render``); this module only plans, runs and records.
+Work runs in this process, in a local process pool (``jobs``), or on a Dask distributed cluster
+(``scheduler``: an address, or ``local:N``), where an input whose worker dies is tried once
+more on another, then reported failed.
 """
 
 from __future__ import annotations
@@ -117,10 +119,15 @@ class Result:
         return worst_exit(line["exit"] for line in self.lines)
 
 
-def folders(sources: list[Path], out: Path) -> list[Path]:
-    """One output folder per input: ``out`` itself for one, ``out/<stem>[-k]`` for several."""
+def folders(sources: list[Path], out: Path, names: list[str] | None = None) -> list[Path]:
+    """One output folder per input: ``out`` itself for one, ``out/<stem>[-k]`` for several, or
+    ``out/<name>`` of ``names`` (one per input, each different) where the caller names them."""
     if len(sources) == 1:
         return [out]
+    if names is not None:
+        if len(names) != len(sources) or len(set(names)) != len(names):
+            raise ValueError(f"folders: {len(sources)} inputs need as many different names, not {names}")
+        return [out / name for name in names]
     seen: dict[str, int] = {}
     result = []
     for p in sources:
@@ -130,7 +137,8 @@ def folders(sources: list[Path], out: Path) -> list[Path]:
     return result
 
 
-def _record(job: Job, folder: Path) -> dict | None:
+def read_record(job: Job, folder: Path) -> dict | None:
+    """The record ``job`` wrote in ``folder``, or None (none there, or not a JSON object)."""
     try:
         record = json.loads((folder / job.record).read_text())
     except (OSError, ValueError):
@@ -147,8 +155,12 @@ def _same_input(record: dict, source: Path) -> bool:
         return False
 
 
-def plan(job: Job, sources: Iterable[Path], out: Path, *, force: bool = False) -> Batch:
+def plan(job: Job, sources: Iterable[Path], out: Path, *, force: bool = False,
+         names: list[str] | None = None) -> Batch:
     """Check a batch before any work and find what an earlier run finished. Writes nothing.
+
+    ``names``: the inputs' folder names under ``out`` (several inputs), instead of their stems
+    (:func:`folders`).
 
     Raises
     ------
@@ -163,11 +175,11 @@ def plan(job: Job, sources: Iterable[Path], out: Path, *, force: bool = False) -
     for p in sources:
         if not p.is_file():
             raise InputError(f"{p}: no such {job.key}; check the path (nothing was written)")
-    items = [Item(p, f) for p, f in zip(sources, folders(sources, out))]
+    items = [Item(p, f) for p, f in zip(sources, folders(sources, out, names))]
     several = len(items) > 1
     todo, done = [], []
     for item in items:
-        record = None if force else _record(job, item.folder)
+        record = None if force else read_record(job, item.folder)
         same = record is not None and _same_input(record, item.source)
         if several and same and record.get("status") in FINISHED:
             done.append((item, record))

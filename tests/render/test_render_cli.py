@@ -106,12 +106,14 @@ def test_several_params_render_into_a_folder_with_a_contact_sheet_and_json(tmp_p
                  "-q")
     assert result.exit_code == 0, result.output
     doc = json.loads(result.stdout)
-    assert [Path(i["output"]).name for i in doc["images"]] == [f"{n}.png" for n in names]
-    for item in doc["images"]:
+    assert [i["output"] for i in doc["images"]] == [str(out / n / "render.png") for n in names]
+    for name, item in zip(names, doc["images"]):
         assert item["mode"] == "neural" and item["spp"] == 2 and item["pitch_source"] == "default"
-        assert item["timings"]["render"] > 0 and any("pitch" in n for n in item["notes"])
+        record = json.loads((out / name / "render.json").read_text())
+        assert record["timings_s"]["render"] > 0 and any("pitch" in n for n in record["notes"])
         assert Path(item["output"]).is_file()
     assert doc["mesh"]["uv_source"] == "file" and doc["mesh"]["triangles"] == 2048
+    assert doc["sheet"] == str(out / "sheet.png")
     sheet = load_photo(out / "sheet.png").rgb
     assert sheet.shape[1] > 2 * 48 and sheet.shape[0] > 32
 

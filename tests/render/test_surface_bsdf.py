@@ -10,7 +10,6 @@ are in standard errors (SE) plus a small absolute margin.
 
 from __future__ import annotations
 
-import dataclasses
 import itertools
 from pathlib import Path
 
@@ -22,6 +21,7 @@ from weavecap.backend import mitsuba
 from weavecap.model import bysdf as b
 from weavecap.render import surface
 from weavecap.render import bsdf as sb
+from shading_batch import ShadingBatch
 
 mi = mitsuba()
 import drjit as dr  # noqa: E402
@@ -40,34 +40,18 @@ def textures():
     return sb.SurfaceTextures(surface.bake(fabric, texels_per_yarn=16))
 
 
-class Batch:
+class Batch(ShadingBatch):
     """Parameter sets, each over ``lanes`` lanes at random points of the repeat (face or back)."""
 
     def __init__(self, textures, configs: list[dict], lanes: int, *, seed: int = 0, grad: bool = False,
                  back: bool = False):
-        self.count, self.lanes = len(configs), lanes
-        values = [{**b.DEFAULTS, **c} for c in configs]
-        self.leaves = []
-
-        def column(key):
-            data = np.repeat(np.array([v[key] for v in values], dtype=np.float32), lanes)
-            x = mi.Color3f(data, data, data) if key in b.COLOUR_KEYS else mi.Float(data)
-            if grad:
-                dr.enable_grad(x)
-                self.leaves.append((key, x))
-            return x
-
-        self.p = b.Shading(**{f.name: column(f.name) for f in dataclasses.fields(b.Shading)})
-        r, s = column("body_reflection"), column("body_subsurface")
+        super().__init__(configs, lanes, grad=grad)
+        r, s = self.column("body_reflection"), self.column("body_subsurface")
         self.colours = sb.YarnColours(warp_reflection=r, weft_reflection=r, warp_subsurface=s, weft_subsurface=s)
         rng = np.random.default_rng(seed)
         n = self.count * lanes
         self.point = textures.lookup(mi.Float(rng.random(n, dtype=np.float32)),
                                      mi.Float(rng.random(n, dtype=np.float32)), mi.Bool(back))
-
-    def per_config(self, x) -> np.ndarray:
-        a = np.asarray(x)
-        return (a[0] if a.ndim == 2 else a).reshape(self.count, self.lanes)
 
     def eval(self, wi, wo):
         return sb.eval_surface(self.p, self.colours, self.point, wi, wo)
