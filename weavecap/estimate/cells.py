@@ -166,3 +166,41 @@ def gap_phase(canvas: np.ndarray, shape: tuple[int, int]) -> tuple[float, float]
         den = a - 2 * b + d
         out.append((i + (0.5 * (a - d) / den if den < 0 else 0.0)) % c_)
     return out[0], out[1]
+
+
+def mirror_phase(canvas: np.ndarray, shape: tuple[int, int]) -> tuple[float, float]:
+    """Where the repeat's projections are mirror-symmetric, model-free: (y, x) in canvas px,
+    each in [0, c/2), c the cell side; 0 when the cell borders (or the cell centres) are
+    already on a centre of symmetry.
+
+    A yarn's cross-section, and the gap between two yarns, are each symmetric about their
+    middle, whatever the light: the canvas's row means folded over the cells (and its column
+    means) are mirror-symmetric about the gaps and about the yarn centres, two centres half a
+    cell apart, so this finds the gap lattice up to half a cell (:func:`weavecap.fit.target.align_cells`
+    decides which half). Unlike :func:`gap_phase` (the sharpest curvature: a gap's edge where
+    the gap is wide, a yarn centre where the yarns are thin and round) it has no bias from the
+    gap's width. A profile ``f`` with ``f(i) = f(k - i)`` maximises the circular
+    autoconvolution ``(f * f)(k)``; the peak is located to a fraction of a pixel by a parabola
+    and the centre is ``k / 2`` (pixel i's centre at i + 0.5). ``canvas`` (n_e*c, n_a*c, ...)
+    wraps around; a flat projection gives 0.
+    """
+    n_e, n_a = shape
+    grey = np.asarray(canvas, np.float64)
+    grey = grey.mean(axis=2) if grey.ndim == 3 else grey
+    out = []
+    for axis, n in ((0, n_e), (1, n_a)):
+        prof = grey.mean(axis=1 - axis)
+        c_ = prof.size // n
+        f = prof[: n * c_].reshape(n, c_).mean(axis=0)
+        f = f - f.mean()
+        if not np.any(np.abs(f) > 1e-9):
+            out.append(0.0)
+            continue
+        spec = np.fft.rfft(f)
+        conv = np.fft.irfft(spec * spec, c_)
+        i = int(np.argmax(conv))
+        a, b, d = conv[(i - 1) % c_], conv[i], conv[(i + 1) % c_]
+        den = a - 2 * b + d
+        k = i + (0.5 * (a - d) / den if den < 0 else 0.0)
+        out.append(float((k / 2.0 + 0.5) % (c_ / 2.0)))
+    return out[0], out[1]
