@@ -27,6 +27,10 @@ from weavecap import bench, fixtures
 assert bench.FIXTURE.is_file(), f"bench fixture missing: {bench.FIXTURE}"
 assert fixtures.path("photos", "twill_3_1.png").is_file()
 assert fixtures.path("meshes", "skirt.obj").is_file(), "the wheel lacks the fixture meshes"
+from weavecap.render.fold.blidf import weights_path
+assert weights_path().is_file(), f"the wheel lacks the fold renderer's weights: {weights_path()}"
+woven = pathlib.Path(importlib.util.find_spec("weavecap.render.woven").origin).parent / "weights"
+assert any(woven.glob("*.npz")), f"the wheel lacks the woven renderer's weights in {woven}"
 PY
 test -f "$work/venv/share/man/man1/weavecap-fit.1" || { echo "check_wheel: man pages not installed" >&2; exit 1; }
 photo=$("$bin/python" -c 'from weavecap import fixtures; print(fixtures.path("photos", "twill_3_1.png"))')
@@ -35,6 +39,12 @@ test -s fit/params.json && test -s fit/report.json
 echo "check_wheel: the installed wheel fitted $photo ($(cd "$work" && "$bin/python" -c 'import json; r=json.load(open("fit/report.json")); print(r["weave"], r["fit"]["psnr_db"], "dB")'))"
 # and the captured fabric on a garment, from the installed wheel (the demo's last step, tiny)
 skirt=$("$bin/python" -c 'from weavecap import fixtures; print(fixtures.path("meshes", "skirt.obj"))')
-"$bin/weavecap" render fit/params.json "$skirt" -o skirt.png --size 96x72 --spp 4 --pitch-mm 3 -q
+"$bin/weavecap" render fit/params.json "$skirt" -o skirt.png --size 96x72 --pitch-mm 3 --fold on --json > render.json
 test -s skirt.png
+"$bin/python" - <<'PY'
+import json, sys
+image = json.load(open("render.json"))["images"][0]
+if image["mode"] != "neural" or image["fold"] != "blidf":
+    sys.exit(f"check_wheel: the wheel rendered mode {image['mode']} with fold {image['fold']}, not neural + blidf")
+PY
 echo "check_wheel: the installed wheel rendered fit/params.json on $skirt"
