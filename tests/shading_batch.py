@@ -39,3 +39,15 @@ class ShadingBatch:
         """(configs, lanes) array of a Float, or of a colour's first channel."""
         a = np.asarray(x)
         return (a[0] if a.ndim == 2 else a).reshape(self.count, self.lanes)
+
+
+def uniform_sphere(n: int, seed: int) -> "mi.Vector3f":
+    """``n`` directions drawn uniformly over the sphere (seeded)."""
+    rng = np.random.default_rng(seed)
+    return mi.warp.square_to_uniform_sphere(mi.Point2f(rng.random(n, dtype=np.float32),
+                                                       rng.random(n, dtype=np.float32)))
+
+
+def mean_se(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per-row mean and standard error of the mean."""
+    return x.mean(axis=1), x.std(axis=1) / np.sqrt(x.shape[1])

@@ -23,7 +23,7 @@ mi = mitsuba()
 import drjit as dr  # noqa: E402  (after the backend chose libLLVM)
 
 from weavecap.model import bysdf as b  # noqa: E402
-from shading_batch import ShadingBatch  # noqa: E402
+from shading_batch import ShadingBatch, mean_se, uniform_sphere  # noqa: E402
 
 WHITE = dict(reflection=1.0, transmission=0.3, transmission_exit=0.5, attenuation=0.0, body_attenuation=0.0,
              body_reflection=1.0, body_subsurface=1.0, ply_shadow=0.0, fiber_shadow=0.0, coefficient=0.5)
@@ -67,17 +67,6 @@ def view(cos_v: np.ndarray, lanes: int) -> mi.Vector3f:
     c = np.repeat(np.asarray(cos_v, dtype=np.float64), lanes)
     return mi.Vector3f(np.sqrt(1 - c * c).astype(np.float32), np.zeros_like(c, dtype=np.float32),
                        c.astype(np.float32))
-
-
-def uniform_sphere(n: int, seed: int) -> mi.Vector3f:
-    rng = np.random.default_rng(seed)
-    return mi.warp.square_to_uniform_sphere(mi.Point2f(rng.random(n, dtype=np.float32),
-                                                       rng.random(n, dtype=np.float32)))
-
-
-def mean_se(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Per-row mean and standard error of the mean."""
-    return x.mean(axis=1), x.std(axis=1) / np.sqrt(x.shape[1])
 
 
 # -- hard cases: finite, non-negative values and gradients ------------------------------------

@@ -21,7 +21,7 @@ from weavecap.backend import mitsuba
 from weavecap.model import bysdf as b
 from weavecap.render import surface
 from weavecap.render import bsdf as sb
-from shading_batch import ShadingBatch
+from shading_batch import ShadingBatch, mean_se, uniform_sphere
 
 mi = mitsuba()
 import drjit as dr  # noqa: E402
@@ -72,16 +72,6 @@ def view(cos_v, lanes: int) -> mi.Vector3f:
     s = np.sqrt(1 - c * c)
     return mi.Vector3f((s * np.cos(0.5)).astype(np.float32), (s * np.sin(0.5)).astype(np.float32),
                        c.astype(np.float32))
-
-
-def uniform_sphere(n: int, seed: int) -> mi.Vector3f:
-    rng = np.random.default_rng(seed)
-    return mi.warp.square_to_uniform_sphere(mi.Point2f(rng.random(n, dtype=np.float32),
-                                                       rng.random(n, dtype=np.float32)))
-
-
-def mean_se(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    return x.mean(axis=1), x.std(axis=1) / np.sqrt(x.shape[1])
 
 
 # -- white furnace and sampling ------------------------------------------------------------------
