@@ -18,7 +18,7 @@ from typing import Callable
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from conftest import bad_params_text
+from params_cases import bad_params_text
 
 from weavecap.cli.main import cli
 from weavecap.photo import save_png

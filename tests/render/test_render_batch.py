@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 from click.testing import CliRunner
-from conftest import bad_params_text
+from params_cases import bad_params_text
 
 from weavecap.cli.main import cli
 from weavecap.photo import file_sha256, load_photo
