@@ -78,3 +78,23 @@ def test_a_failed_photo_is_retried_on_resume_and_keeps_one_summary_line(tmp_path
         assert all(s["status"] == "failed" and s["reason"] == "unexpected error: RuntimeError: boom" for s in summary)
         report = json.loads((out / "a" / "report.json").read_text())
         assert report["status"] == "failed" and len(report["input"]["sha256"]) == 64
+
+
+def test_a_dask_attempt_counts_its_starts_and_ends_failed_after_the_retry(tmp_path, monkeypatch):
+    """On a Dask worker an input is started at most RETRIES + 1 times: a start whose worker died
+    leaves its count behind; the next start past the retries writes the failed record without
+    running the input; a finished attempt leaves no count (so a queued input that was never
+    started has lost none of its tries)."""
+    runs = []
+    monkeypatch.setattr(FitJob, "run", lambda self, source, folder: runs.append(source) or {"status": "ok"})
+    job, folder = FitJob(), tmp_path / "item"
+    assert batch.counted_attempt(job, "a.png", str(folder)) == ({"status": "ok"}, "ok")
+    assert runs == ["a.png"] and not folder.exists()  # nothing written, nothing left behind
+
+    folder.mkdir()
+    (folder / batch.STARTS).write_text(str(batch.RETRIES + 1))  # started twice, each time its worker died
+    record, status = batch.counted_attempt(job, "a.png", str(folder))
+    assert status == "failed" and runs == ["a.png"]
+    assert "died on each of 2 tries" in record["reason"]
+    assert json.loads((folder / job.record).read_text())["status"] == "failed"
+    assert not (folder / batch.STARTS).exists()

@@ -280,6 +280,41 @@ Outcomes = Iterator[tuple[Item, dict, str]]
 
 #: a photo whose Dask worker dies is tried on a worker once more, then reported failed
 RETRIES = 1
+#: deaths of a worker that an input waited on without running (Dask counts those against it too)
+QUEUED_DEATHS = 2
+#: in an input's folder while a Dask worker runs it: how many times it was started
+STARTS = ".starts"
+
+
+def _lost_reason(starts: int) -> str:
+    return (f"lost: its Dask worker died on each of {starts} tries (killed, or out of memory?); "
+            "the workers' logs say more")
+
+
+def counted_attempt(job: Job, source: str, folder: str, threads: int | None = None) -> tuple[dict, str]:
+    """:func:`attempt` on a Dask worker, counting its starts in ``FOLDER/.starts``.
+
+    Dask counts a worker's death against every input assigned to it, also those queued behind
+    the one that killed it; what counts here is how often this input was *started*: once more
+    than ``RETRIES`` starts ended with a dead worker, the next start writes the ``failed``
+    record instead of running it again. The count is removed when the attempt returns.
+    """
+    marker = Path(folder) / STARTS
+    starts = int(marker.read_text()) if marker.is_file() else 0
+    if starts > RETRIES:
+        record = job.failure_record(source, "failed", _lost_reason(starts), 0.0)
+        atomic_write_text(Path(folder) / job.record, json.dumps(record, indent=1) + "\n")
+        marker.unlink(missing_ok=True)
+        return record, "failed"
+    made = not marker.parent.exists()
+    marker.parent.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(marker, str(starts + 1))
+    try:
+        return attempt(job, source, folder, threads)
+    finally:
+        marker.unlink(missing_ok=True)
+        if made and not any(marker.parent.iterdir()):  # an invalid input writes nothing
+            marker.parent.rmdir()
 
 
 def _serial(batch: Batch, on_start: Callable[[Item, int], None]) -> Outcomes:
@@ -332,7 +367,7 @@ def _dask_client(address: str) -> Iterator[tuple[object, int | None]]:
 
     n = local_workers(address)
     with contextlib.ExitStack() as stack:
-        stack.enter_context(dask.config.set({"distributed.scheduler.allowed-failures": RETRIES}))
+        stack.enter_context(dask.config.set({"distributed.scheduler.allowed-failures": RETRIES + 1 + QUEUED_DEATHS}))
         if n is not None:
             cluster = stack.enter_context(LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
                                                        host="127.0.0.1", dashboard_address=None,
@@ -345,17 +380,20 @@ def _dask_client(address: str) -> Iterator[tuple[object, int | None]]:
             except (OSError, TimeoutError, ValueError) as exc:
                 raise InputError(f"--scheduler {address}: cannot reach a Dask scheduler there ({exc}); start one "
                                  "with `dask scheduler` (see the README), or use local:N (nothing was written)") from None
-            client.run_on_scheduler(_tell_scheduler, retries=RETRIES)
+            client.run_on_scheduler(_tell_scheduler, retries=RETRIES + 1 + QUEUED_DEATHS)
             threads = None
         yield client, threads
 
 
 def _dask(batch: Batch, client, threads: int | None) -> Outcomes:
     """Each input a task on the cluster, no more at a time than the workers have threads, so a
-    worker holds only the input it works on: a worker that dies takes that one input with it
-    (which the scheduler reschedules, up to ``RETRIES`` times) and no other. A result is taken
-    back before its worker gets a new input. An input whose worker died ``RETRIES + 1`` times
-    ends as a ``failed`` record, written here."""
+    worker mostly holds only the input it works on. A result is taken back before a new input
+    is sent. A worker that dies takes the input it ran with it, which the scheduler
+    reschedules; once an input was started ``RETRIES + 1`` times on workers that died, it ends
+    as a ``failed`` record (:func:`counted_attempt`). While a dead worker's input is
+    rescheduled, the scheduler can queue another input behind it on a busy worker, and Dask
+    counts that worker's death against both: up to ``QUEUED_DEATHS`` such deaths are not held
+    against an input; beyond, its ``failed`` record is written here."""
     from distributed import as_completed
     from distributed.scheduler import KilledWorker
 
@@ -366,7 +404,8 @@ def _dask(batch: Batch, client, threads: int | None) -> Outcomes:
 
     def submit() -> object:
         i, item = waiting.pop()
-        future = client.submit(attempt, batch.job, str(item.source), str(item.folder), threads, pure=False,
+        (item.folder / STARTS).unlink(missing_ok=True)  # a new batch gives every input its tries again
+        future = client.submit(counted_attempt, batch.job, str(item.source), str(item.folder), threads, pure=False,
                                key=f"weavecap-{run_id}-{i}-{item.source.name}")
         items[future.key] = item
         return future
@@ -380,8 +419,8 @@ def _dask(batch: Batch, client, threads: int | None) -> Outcomes:
         else:
             exc = future.exception()
             if isinstance(exc, KilledWorker):
-                reason = (f"lost: its Dask worker died on each of {RETRIES + 1} tries (killed, or out of memory?); "
-                          f"the last was {exc.last_worker.address}, whose log says more")
+                reason = _lost_reason(RETRIES + 1) + f" (the last was {exc.last_worker.address})"
+                (item.folder / STARTS).unlink(missing_ok=True)
             else:
                 reason = f"unexpected error: {type(exc).__name__}: {exc}"
             record = batch.job.failure_record(str(item.source), "failed", reason, time.perf_counter() - t0)
