@@ -161,11 +161,17 @@ def gap_phase(canvas: np.ndarray, shape: tuple[int, int]) -> tuple[float, float]
     for axis, n, c_ in ((0, n_e, c_y), (1, n_a, c_x)):
         curv = np.abs(np.roll(y, -1, axis) - 2 * y + np.roll(y, 1, axis)).mean(axis=1 - axis)
         prof = gaussian_filter1d(curv.reshape(n, c_).sum(axis=0), c_ / 12, mode="wrap")
-        i = int(np.argmax(prof))
-        a, b, d = prof[(i - 1) % c_], prof[i], prof[(i + 1) % c_]
-        den = a - 2 * b + d
-        out.append((i + (0.5 * (a - d) / den if den < 0 else 0.0)) % c_)
+        out.append(_circular_peak(prof) % c_)
     return out[0], out[1]
+
+
+def _circular_peak(values: np.ndarray) -> float:
+    """Index of the maximum of a circular 1-D array, to a fraction of a sample: the vertex of
+    the parabola through it and its two neighbours (the integer index where that is flat)."""
+    i = int(np.argmax(values))
+    a, b, d = values[(i - 1) % values.size], values[i], values[(i + 1) % values.size]
+    den = a - 2 * b + d
+    return i + (0.5 * (a - d) / den if den < 0 else 0.0)
 
 
 def mirror_phase(canvas: np.ndarray, shape: tuple[int, int]) -> tuple[float, float]:
@@ -197,10 +203,6 @@ def mirror_phase(canvas: np.ndarray, shape: tuple[int, int]) -> tuple[float, flo
             out.append(0.0)
             continue
         spec = np.fft.rfft(f)
-        conv = np.fft.irfft(spec * spec, c_)
-        i = int(np.argmax(conv))
-        a, b, d = conv[(i - 1) % c_], conv[i], conv[(i + 1) % c_]
-        den = a - 2 * b + d
-        k = i + (0.5 * (a - d) / den if den < 0 else 0.0)
+        k = _circular_peak(np.fft.irfft(spec * spec, c_))
         out.append(float((k / 2.0 + 0.5) % (c_ / 2.0)))
     return out[0], out[1]
