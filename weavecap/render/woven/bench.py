@@ -213,10 +213,7 @@ def bench_fabrics() -> list[tuple[str, bool, Fabric]]:
 def _surface_bsdf(fabric, maps, linear: bool):
     from ..bsdf import SurfaceBSDF
 
-    try:
-        return SurfaceBSDF(fabric, maps, placement_of(fabric), linear=linear)
-    except TypeError:  # a SurfaceBSDF without the texture-filter choice: always linear
-        return SurfaceBSDF(fabric, maps, placement_of(fabric))
+    return SurfaceBSDF(fabric, maps, placement_of(fabric), linear=linear)
 
 
 def frame_costs(fabric: Fabric, maps, *, frames: int = TIMED_FRAMES) -> dict:

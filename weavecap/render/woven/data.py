@@ -215,18 +215,6 @@ def point_queries(shading, textures, side: int, s: np.ndarray, t: np.ndarray, wi
     return _terms.split_by_yarn(t7, np.asarray(point.warp)).astype(np.float32)
 
 
-def monte_carlo_footprint(shading, textures, side: int, s: float, t: float, size: float, pattern_shape,
-                          wi: np.ndarray, wo: np.ndarray, samples: int, rng: np.random.Generator) -> np.ndarray:
-    """(14,) the channels averaged over ``samples`` uniform points of the square footprint
-    of side ``size`` yarn pitches centred at (s, t): the brute-force estimate the summed-area
-    tables are checked against (what the reference renderer's pixel samples average)."""
-    n_e, n_a = pattern_shape
-    ds = (rng.random(samples) - 0.5) * size / n_a
-    dt = (rng.random(samples) - 0.5) * size / n_e
-    rep = lambda d: np.repeat(d[None], samples, axis=0)  # noqa: E731
-    return point_queries(shading, textures, side, s + ds, t + dt, rep(wi), rep(wo)).astype(np.float64).mean(axis=0)
-
-
 # ---------------------------------------------------------------------------------------------
 # one material, one shard
 
@@ -234,8 +222,8 @@ def monte_carlo_footprint(shading, textures, side: int, s: float, t: float, size
 def material_queries(fabric: Fabric, maps: SurfaceMaps, side: int, config: DataConfig,
                      rng: np.random.Generator) -> dict:
     """The queries of one material (``side`` of ``fabric``): dict of ``inputs`` (Q, 9) float32
-    (INPUTS), ``features`` (Q, 16) float16 (:data:`~.footprint.FEATURES`, box means over each
-    footprint) and ``targets`` (Q, 14) float32 (:data:`~.terms.CHANNELS`)."""
+    (INPUTS) and ``targets`` (Q, 14) float32 (:data:`~.terms.CHANNELS`). Their features and
+    baselines are added from the shard's stored maps (:func:`complete_shard`)."""
     from ..bsdf import SurfaceTextures, shading_of
 
     shading, _ = shading_of(fabric)
@@ -243,9 +231,8 @@ def material_queries(fabric: Fabric, maps: SurfaceMaps, side: int, config: DataC
     t_yarn = maps.texels_per_yarn
     wi, wo = direction_pairs(rng, config.grid)
     n_pairs = len(wi)
-    fsat, fmean = periodic_sat(feature_image(maps, side))
     images = texel_terms(shading, maps, side, wi, wo)
-    inputs, features, targets = [], [], []
+    inputs, targets = [], []
     per = max(1, (1 << 24) // (h * w * 14 * 8))  # pairs per summed-area table batch (~128 MB)
     for p0 in range(0, n_pairs, per):
         p1 = min(n_pairs, p0 + per)
@@ -257,18 +244,14 @@ def material_queries(fabric: Fabric, maps: SurfaceMaps, side: int, config: DataC
         x, y = fabric_to_texel(s, t, (h, w))
         half = size * t_yarn / 2.0
         targets.append(box_mean(sat, mean, x, y, half, lead=(pair,)))
-        features.append(box_mean(fsat, fmean, x, y, half))
         inputs.append(np.concatenate([np.stack([s, t, size], -1), wi[p0 + pair], wo[p0 + pair]], axis=-1))
     if config.points:
         textures = SurfaceTextures(maps)
         pair = np.repeat(np.arange(n_pairs), config.points)
         s, t = rng.random(len(pair)), rng.random(len(pair))
-        x, y = fabric_to_texel(s, t, (h, w))
         targets.append(point_queries(shading, textures, side, s, t, wi[pair], wo[pair]))
-        features.append(box_mean(fsat, fmean, x, y, np.full(len(pair), 1e-3)))
         inputs.append(np.concatenate([np.stack([s, t, np.zeros_like(s)], -1), wi[pair], wo[pair]], axis=-1))
     return {"inputs": np.concatenate(inputs).astype(np.float32),
-            "features": np.concatenate(features).astype(np.float16),
             "targets": np.concatenate(targets).astype(np.float32)}
 
 
@@ -304,12 +287,12 @@ def make_shard(config: DataConfig, shard: int) -> dict:
     """Every array of shard ``shard`` (both sides of each of its fabrics): per material
     (``material_*``) the encoder's image and parameters, the fabric's index, side, repeat
     shape and colour coefficients (:func:`~.terms.colour_coefficients`, to judge errors in
-    RGB); per query ``inputs``, ``features``, ``targets`` and ``material``; and each fabric's
-    baked maps (``maps{index}_{field}``, float16) so features can be recomputed."""
+    RGB); per query ``inputs``, ``targets`` and ``material``; and each fabric's baked maps
+    (``maps{index}_{field}``, float16), from which :func:`complete_shard` adds the features."""
     rng = np.random.default_rng([config.seed, shard, 1])
     mats = {"image": [], "params": [], "fabric": [], "side": [], "shape": [], "colours": []}
     maps_out = {}
-    queries = {"inputs": [], "features": [], "targets": [], "material": []}
+    queries = {"inputs": [], "targets": [], "material": []}
     for index, fabric in shard_fabrics(config, shard):
         maps = bake(fabric, texels_per_yarn=config.texels_per_yarn)
         for key in ("coverage", "warp", "normal", "height", "grooves", "through", "horizon"):
@@ -323,7 +306,7 @@ def make_shard(config: DataConfig, shard: int) -> dict:
             mats["shape"].append(fabric.shape)
             mats["colours"].append(_terms.colour_coefficients(_terms.fabric_colours(fabric)).astype(np.float32))
             q = material_queries(fabric, maps, side, config, rng)
-            for key in ("inputs", "features", "targets"):
+            for key in ("inputs", "targets"):
                 queries[key].append(q[key])
             queries["material"].append(np.full(len(q["inputs"]), m, dtype=np.int32))
     out = {f"material_{k}": np.asarray(v) for k, v in mats.items()}

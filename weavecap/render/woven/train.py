@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from . import data as _data
+from . import terms as _terms
 from .terms import CHANNELS
 
 
@@ -87,14 +88,13 @@ class Dataset:
         return {"image": self.image[chosen].astype(np.float32), "params": self.params[chosen],
                 "material": np.repeat(np.arange(materials), queries), "inputs": self.inputs[idx],
                 "features": self.features[idx].astype(np.float32), "targets": self.targets[idx],
-                "baseline": self.baseline[idx],
-                "colours": self.colours[chosen]}
+                "baseline": self.baseline[idx]}
 
 
 def _tensors(batch: dict):
     import torch
 
-    return {k: torch.from_numpy(np.ascontiguousarray(v)) for k, v in batch.items() if k != "colours"}
+    return {k: torch.from_numpy(np.ascontiguousarray(v)) for k, v in batch.items()}
 
 
 def learning_rate(config: TrainConfig, step: int) -> float:
@@ -191,8 +191,8 @@ def evaluate(model, dataset: Dataset, materials: np.ndarray, *, queries: int = 2
                             torch.from_numpy(dataset.baseline[idx]))
                 values = to_values(out, inputs, use_baseline=model.decoder.use_baseline).numpy().astype(np.float64)
             coef = dataset.colours[m].astype(np.float64)
-            preds.append(values @ coef)
-            truths.append(dataset.targets[idx].astype(np.float64) @ coef)
+            preds.append(_terms.combine(values, coef))
+            truths.append(_terms.combine(dataset.targets[idx].astype(np.float64), coef))
             per_material.append(float(((preds[-1] - truths[-1]) ** 2).sum() / max((truths[-1] ** 2).sum(), 1e-30)))
             sizes.append(dataset.inputs[idx, 2] / max(dataset.shape[m]))
             below.append(dataset.inputs[idx, 8] < 0.0)
