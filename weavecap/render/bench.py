@@ -81,20 +81,16 @@ def _scenes(mesh_path: Path) -> tuple[dict, dict]:
     from ..backend import mitsuba
     from .mesh import load_mesh
     from .run import RenderOptions, prepare_render
-    from .scene import frame_camera, lighting
 
     mi = mitsuba()
     t = time.perf_counter()
     mesh = load_mesh(mesh_path)
     info = {"triangles": int(len(mesh.faces)), "mesh_s": time.perf_counter() - t}
     options = RenderOptions(spp=SPP, size=SIZE, max_depth=DEPTH)
-    camera = frame_camera(mesh.bounds, view=options.view, kind=options.camera, fov_deg=options.fov_deg,
-                          margin=options.margin, size=options.size)
-    lights = lighting(options.light, camera)
+    prepared = prepare_render(params.load(FABRIC), mesh, options)  # the diffuse baseline sees its camera and lights
     diffuse = mi.load_dict({"type": "scene", "integrator": {"type": "path", "max_depth": DEPTH},
-                            "sensor": camera.sensor(SPP), "garment": mesh.to_mitsuba(mi.load_dict({"type": "diffuse"})),
-                            **lights.emitters})
-    prepared = prepare_render(params.load(FABRIC), mesh, options)
+                            "sensor": prepared.camera.sensor(SPP),
+                            "garment": mesh.to_mitsuba(mi.load_dict({"type": "diffuse"})), **prepared.lighting.emitters})
     info.update(bake_s=prepared.timings["bake"], texture_filter=prepared.info["texture_filter"],
                 texels_per_yarn=prepared.info["texels_per_yarn"])
     return {"diffuse": diffuse, "reference": prepared.scene}, info

@@ -44,6 +44,7 @@ from pathlib import Path
 import numpy as np
 
 from ...fixtures import path as fixture_path
+from ..bench import SHARED_MESHES
 
 FABRIC = fixture_path("params", "satin_5.json")
 LIGHT = "sun"
@@ -53,7 +54,6 @@ FRAME_REF_SPP = 512
 FRAME_SIZE = (1280, 720)
 SPP = 64
 PT_DEPTH = 16
-SHARED_MESHES = Path(__file__).resolve().parents[3] / ".." / "shared" / "meshes"
 SEEN = {"sine_high": (0.0, 35.0), "horseshoe_narrow": (0.0, 30.0), "wave": (20.0, 40.0), "skirt": (30.0, 10.0),
         "drape": (30.0, 30.0)}
 UNSEEN = {"towel": (0.0, 50.0), "crumpled": (20.0, 45.0)}

@@ -30,7 +30,7 @@ import numpy as np
 from ...backend import mitsuba
 from . import blidf as B
 from .descriptors import cached_descriptors
-from .visibility import SIDES, asg_value, fibonacci_sphere, fit_asg, lit_share, neighbourhood_samples
+from .visibility import SIDES, albedo, asg_value, fibonacci_sphere, fit_asg, lit_share, neighbourhood_samples
 
 mi = mitsuba()
 import drjit as dr  # noqa: E402  (after the backend chose libLLVM)
@@ -136,7 +136,7 @@ def vertex_gain(scene, garment, vertices, faces, desc, model: B.BLIDF, *, neighb
         nb = neighbourhood_samples(scene, garment, vertices, faces, desc, side, neighbours, seed=seed + side, at=at)
         count = nb.found.sum(axis=1)
         mean_albedo = nb.albedo[nb.found].mean(axis=0) if nb.found.any() else np.full(3, 0.5)
-        albedo = np.where(count[:, None] > 0, nb.albedo.sum(axis=1) / np.maximum(count, 1)[:, None], mean_albedo)
+        around = np.where(count[:, None] > 0, nb.albedo.sum(axis=1) / np.maximum(count, 1)[:, None], mean_albedo)
         lights, notes = scene_lights(scene, np.asarray(vertices, np.float64)[at], sky_directions=sky_directions)
         facts["lights"] = sum(1 for l in lights if l.kind != "environment")
         facts["sky_directions"] = sum(1 for l in lights if l.kind == "environment")
@@ -153,7 +153,7 @@ def vertex_gain(scene, garment, vertices, faces, desc, model: B.BLIDF, *, neighb
             if not lit.any():
                 continue
             feats, light_local = B.inputs(desc, side, at[lit], light.to_light[lit])
-            gains = model.gain(feats, light_local, albedo[lit])
+            gains = model.gain(feats, light_local, around[lit])
             G[side, at[lit]] += light.irradiance[lit] * np.einsum("nck,nk->nc", gains, vbar[lit])
     return G, facts
 
@@ -203,11 +203,7 @@ class FoldPassIntegrator(mi.SamplingIntegrator):
         front = dr.dot(si.n, -ray.d) > 0.0
         gain = dr.select(front, si.shape.eval_attribute_3(ATTRIBUTES[0], si, carries & front),
                          si.shape.eval_attribute_3(ATTRIBUTES[1], si, carries & ~front))
-        bsdf = si.bsdf()
-        has = bsdf.has_attribute("ambient", carries)
-        albedo = dr.select(has, bsdf.eval_attribute_3("ambient", si, carries & has),
-                           bsdf.eval_diffuse_reflectance(si, carries & ~has))
-        return mi.Spectrum(dr.select(carries, gain * albedo, 0.0)), valid, []
+        return mi.Spectrum(dr.select(carries, gain * albedo(si, carries), 0.0)), valid, []
 
     def aov_names(self):
         return []

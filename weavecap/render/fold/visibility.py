@@ -135,14 +135,19 @@ def cosine_directions(normal: np.ndarray, rng: np.random.Generator) -> np.ndarra
     return (d / np.linalg.norm(d, axis=1, keepdims=True)).reshape(shape)
 
 
-def _albedo_at(si) -> np.ndarray:
-    """The BSDF's albedo at hits: its ``"ambient"`` attribute if it has one (the surface model),
-    else its diffuse reflectance."""
+def albedo(si, active):
+    """The BSDF's albedo at hits ``si`` (Dr.Jit Color3f): its ``"ambient"`` attribute if it has
+    one (the surface model), else its diffuse reflectance — what the neighbour samples see and
+    the fold pass multiplies by."""
     bsdf = si.bsdf()
-    has = bsdf.has_attribute("ambient", si.is_valid())
-    value = dr.select(has, bsdf.eval_attribute_3("ambient", si, si.is_valid() & has),
-                      bsdf.eval_diffuse_reflectance(si, si.is_valid()))
-    return _np3(value)
+    has = bsdf.has_attribute("ambient", active)
+    return dr.select(has, bsdf.eval_attribute_3("ambient", si, active & has),
+                     bsdf.eval_diffuse_reflectance(si, active & ~has))
+
+
+def _albedo_at(si) -> np.ndarray:
+    """:func:`albedo` at every valid hit, (N, 3)."""
+    return _np3(albedo(si, si.is_valid()))
 
 
 def neighbourhood_samples(scene: "mi.Scene", shape: "mi.Shape", vertices: np.ndarray, faces: np.ndarray,
