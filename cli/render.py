@@ -182,9 +182,10 @@ def _wrote(output, info: dict, timings: dict) -> str:
 
 def _fold_summary(detail: dict) -> str:
     """One line of what the fold term modelled (for -v)."""
-    folded = detail["folded_vertices"]
-    return (f"r = {detail['radius_m'] * 1000:.1f} mm, valleys at {folded['front']} (front) and {folded['back']} "
-            f"(back) of {folded['of']} vertices, {detail['lights']} lights + {detail['sky_directions']} sky directions, "
+    vertices = detail["vertices"]
+    return (f"r = {detail['radius_m'] * 1000:.1f} mm, computed at {vertices['computed']} of {vertices['of']} vertices "
+            f"(valleys: {vertices['valleys']['front']} front, {vertices['valleys']['back']} back), "
+            f"{detail['lights']} lights + {detail['sky_directions']} sky directions, "
             f"{detail['neighbours']} neighbour samples a vertex, {sum(detail['timings'].values()):.2f} s"
             + "".join(f"; {note}" for note in detail["notes"]))
 

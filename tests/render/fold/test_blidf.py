@@ -40,10 +40,10 @@ def test_numpy_evaluation_is_the_trained_torch_network():
         expected = net(torch.tensor(feats, dtype=torch.float32), torch.tensor(light, dtype=torch.float32),
                        torch.tensor(albedo, dtype=torch.float32)).numpy()
     np.testing.assert_allclose(model.gain(feats, light, albedo), expected, rtol=1e-4, atol=1e-7)
-    vbar = np.random.default_rng(1).uniform(0, 1, (500, 2))
+    vbar = np.random.default_rng(1).uniform(0, 1, (500, len(B.SHARES)))
     np.testing.assert_allclose(model(feats, light, albedo, vbar), albedo * np.einsum("nck,nk->nc", expected, vbar),
                                rtol=1e-4, atol=1e-7)
-    assert model.parameters == 1466
+    assert model.parameters == 1500
 
 
 @pytest.mark.parametrize("which", ["random", "shipped"])
@@ -125,10 +125,12 @@ def test_weights_round_trip_through_json_and_refuse_other_files(tmp_path):
 
 def test_shipped_weights_say_how_they_were_made():
     model = B.BLIDF.load()
-    assert model.parameters == 1466
+    assert model.parameters == 1500
     record = model.record
     assert record["made_by"] == "weavecap train-renderer --fold"
     assert {m["name"] for m in record["meshes"]} >= {"sine_high", "skirt", "drape", "horseshoe_narrow"}
     held = record["errors"]["heldout"]
-    # on held-out lights, against LocalPT's noisy 256-path targets: measured 0.000231 against 0.00037
-    assert held["rmse"] < 0.68 * held["rmse_without"]
+    # on held-out lights, against LocalPT's noisy 256-path targets: measured 0.000187 against 0.000383
+    assert held["rmse"] < 0.55 * held["rmse_without"]
+    # no bias on the whole: its mean over LocalPT's, measured 0.95 (0.74 with two shares and 256-ray V̄)
+    assert 0.9 < held["mean_ratio"] < 1.1

@@ -51,8 +51,10 @@ def test_the_fold_term_brightens_valleys_and_says_what_it_modelled(fabric):
     share = added[garment].mean() / off.image[garment].mean()
     assert np.all(added >= -1e-6) and 0.005 < share < 0.03, share  # measured 0.013; LocalPT's local light: 0.021
     detail = on.info["fold_detail"]
-    assert detail["folded_vertices"]["of"] == len(sine.positions)
-    assert 0 < detail["folded_vertices"]["front"] < len(sine.positions)
+    assert detail["vertices"]["of"] == len(sine.positions)
+    # every vertex of the sine sees the garment within r on one side or the other (crests: their far side)
+    assert detail["vertices"]["computed"] == len(sine.positions)
+    assert 0 < detail["vertices"]["valleys"]["front"] < len(sine.positions)
     assert detail["lights"] == 1 and detail["sky_directions"] == term.SKY_DIRECTIONS  # the sun, and the sky
     assert detail["radius_m"] == pytest.approx(0.0296, rel=0.05)
     json.dumps(on.info)  # plain data for --json
@@ -73,7 +75,10 @@ def test_direct_plus_fold_is_closer_to_localpt_than_direct_alone(fabric):
     mask = bench.garment_mask(direct)
     without = bench.rmse(direct, reference, mask)
     ours = bench.rmse(with_fold, reference, mask)
-    assert ours < 0.7 * without, (ours, without)  # measured 0.58 (the 256-spp reference's own noise included)
+    mean_ratio = (with_fold - direct)[mask].mean() / local[mask].mean()
+    assert ours < 0.62 * without, (ours, without)  # measured 0.54 (the 256-spp reference's own noise included)
+    # the fold light's mean over LocalPT's: measured 0.85 (0.5 with the term on valleys only and two shares)
+    assert 0.75 < mean_ratio < 1.1, mean_ratio
 
 
 def test_render_command_reports_the_fold_term(tmp_path):

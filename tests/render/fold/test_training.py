@@ -45,11 +45,30 @@ def test_data_are_seeded_resumable_and_train_into_loadable_weights(tmp_path):
     model = T.write_weights(tmp_path / "w.json", net, meshes, TINY, data_seconds=1.0, train_seconds=seconds,
                             errors=errors, radii=T.mesh_radii(first, meshes, TINY))
     again = B.BLIDF.load(tmp_path / "w.json")
-    assert again.parameters == model.parameters == 1466
+    assert again.parameters == model.parameters == 1500
     assert again.record["config"]["lights"] == 4 and again.record["meshes"][0]["name"] == "tiny_sine"
     # resuming after the last epoch trains no more and gives the same network
     net2, _, errors2 = T.train(first, meshes, TINY)
     assert errors2 == errors
+
+
+def test_every_row_gets_the_shares_and_albedo_of_its_vertexs_other_side():
+    # two lights of three vertices: rows are light by light, side 0 then side 1 of the same vertices
+    vertex = np.array([4, 7, 9, 4, 7, 9, 1, 2, 3, 1, 2, 3])
+    side = np.array([0, 0, 0, 1, 1, 1, 0, 0, 0, 1, 1, 1])
+    vbar = np.arange(24, dtype=float).reshape(12, 2)
+    albedo = np.tile([[0.5, 0.4, 0.3]], (12, 1))
+    albedo[[1, 9]] = 0.0  # these rows' sides found no neighbourhood
+    out = T.both_sides({"vertex": vertex, "side": side, "vbar": vbar, "albedo": albedo})
+    other = np.array([3, 4, 5, 0, 1, 2, 9, 10, 11, 6, 7, 8])
+    np.testing.assert_array_equal(out["vbar"], np.concatenate([vbar, vbar[other]], axis=1))
+    np.testing.assert_array_equal(out["albedo"][1], albedo[4])  # a crest: the valley behind it
+    np.testing.assert_array_equal(out["albedo"][9], albedo[6])
+    np.testing.assert_array_equal(out["albedo"][[0, 2, 3, 10]], albedo[[0, 2, 3, 10]])
+    shuffled = vertex.copy()
+    shuffled[[3, 4]] = shuffled[[4, 3]]  # side 1's rows of the first light in another order
+    with pytest.raises(ValueError, match="side 0 and side 1"):
+        T.both_sides({"vertex": shuffled, "side": side, "vbar": vbar, "albedo": albedo})
 
 
 def test_too_few_lights_to_hold_one_block_out_are_refused():

@@ -5,12 +5,17 @@ For a light of irradiance E from direction ω_i, the local outgoing radiance at 
     L_local(x_o) = E · ρ(x_o) · Σ_s V̄_s(x_o, ω_i) · gain_θ,s(φ_S, φ_L, φ_M, ω_i)
 
 (the supplement's integral over ω_i for a directional light; ρ(x_o) is the albedo the fabric
-shows at x_o — its texture, at render time; V̄_s the neighbourhood's share lit on the side x_o
-sees (s = 0) and on the far side, whose light a translucent fabric lets through (s = 1),
-:func:`.visibility.lit_share`; S_θ = ρ(x_o) · gain the BLIDF). The gain is factorised
-(supplement §3.1, Table 3, "Factorized, SH (Ord 3)"):
+shows at x_o — its texture, at render time; S_θ = ρ(x_o) · gain the BLIDF). V̄_s are four
+shares (:data:`SHARES`, each :func:`.visibility.lit_share`): of the neighbourhood x_o's side
+sees, the part lit on the side facing x_o (s = 0) and on its far side, whose light a
+translucent fabric lets through (s = 1); and the same two of the neighbourhood the *other* side
+of x_o sees (s = 2, 3) — light that reaches x_o's back and comes through the fabric to the side
+seen. That last pair is what lights the convex side of a fold (a crest sees no neighbourhood of
+its own; the valley behind it does): on the training data 15 % of LocalPT's local light lies on
+samples whose own two shares are 0, and 97.5 % of that where the other side's are not. The
+gain is factorised (supplement §3.1, Table 3, "Factorized, SH (Ord 3)"):
 
-- intensity: ρ_N · softplus(MLP_I(φ_S, φ_L, φ_M)) — 12 → 32 → 16 → 2 (one per share), SiLU;
+- intensity: ρ_N · softplus(MLP_I(φ_S, φ_L, φ_M)) — 12 → 32 → 16 → 4 (one per share), SiLU;
   ρ_N, the neighbourhood's albedo (φ_M, one channel at a time), makes a black fabric return
   nothing;
 - directional part: max(0, 1 + Σ_{l=1,2} a_lm Y_lm(ω_i) / Y_00), the eight a_lm from
@@ -20,7 +25,7 @@ sees (s = 0) and on the far side, whose light a translucent fabric lets through 
   mean over directions. Over ω_i, not ω_o: the fabric at x_o is taken to reflect the light its
   neighbours send it as its albedo says (the fold light arrives from all around).
 
-1466 parameters. Inputs, per vertex, side and light (:func:`inputs`):
+1500 parameters. Inputs, per vertex, side and light (:func:`inputs`):
 
 - φ_S (9): φ_hv of the side, and φ_poly's eight coefficients in the fold's frame
   (:func:`canonical_frame`: x across the fold, whatever the mesh's parametrisation);
@@ -42,11 +47,12 @@ import numpy as np
 from .descriptors import Descriptors
 
 FEATURES = ("hv", "c0", "cz", "cxx", "cyy", "czz", "cxy", "cxz", "cyz", "cos_n", "cos_nN")
-INTENSITY_LAYERS = (len(FEATURES) + 1, 32, 16, 2)  # gains of the light met on the side seen, and through it
+SHARES = ("seen_facing", "seen_through", "behind_facing", "behind_through")  # V̄'s columns (module docstring)
+INTENSITY_LAYERS = (len(FEATURES) + 1, 32, 16, len(SHARES))  # one gain per share
 DIRECTION_LAYERS = (len(FEATURES), 24, 8)
 ISOTROPIC = 0.1  # a tangent block less anisotropic than this (relative) is turned by the rise alone
 INPUT_CLIP = 6.0  # standardised inputs are clipped to ± this (unseen meshes stay in range)
-FORMAT = "weavecap.fold-blidf/1"
+FORMAT = "weavecap.fold-blidf/2"  # /2: four shares (both sides of x_o)
 WEIGHTS_FILE = "blidf.json"
 Y00 = 0.28209479177387814
 
@@ -187,20 +193,21 @@ class BLIDF:
 
     def __call__(self, features: np.ndarray, light_local: np.ndarray, albedo: np.ndarray,
                  vbar: np.ndarray) -> np.ndarray:
-        """S_θ · V̄ (N, C) of a uniform fabric of albedos (N, C) with shares ``vbar`` (N, 2)."""
+        """S_θ · V̄ (N, C) of a uniform fabric of albedos (N, C) with shares ``vbar`` (N, 4) (:data:`SHARES`)."""
         albedo = np.asarray(albedo, np.float64)
         return albedo * np.einsum("nck,nk->nc", self.gain(features, light_local, albedo), vbar)
 
     def gain(self, features: np.ndarray, light_local: np.ndarray, albedo: np.ndarray) -> np.ndarray:
-        """(N, C, 2): the light the neighbourhood sends x_o per unit irradiance and unit share of
-        it lit on the side seen ([..., 0]) and through it ([..., 1]), for neighbourhood albedos
-        (N, C), one column per colour channel: ρ_N · softplus(MLP_I) · max(0, 1 + Σ a_lm Y_lm(ω_i)).
+        """(N, C, 4): the light the neighbourhood sends x_o per unit irradiance and unit share
+        (:data:`SHARES`: of the neighbourhood the side seen sees, lit facing x_o and through it;
+        of the one behind x_o, the same), for neighbourhood albedos (N, C), one column per colour
+        channel: ρ_N · softplus(MLP_I) · max(0, 1 + Σ a_lm Y_lm(ω_i)).
         The albedo of x_o itself (its texture, at render time) multiplies it.
         """
         x = self.standardise(np.asarray(features, np.float64))
         albedo = np.asarray(albedo, np.float64)
         direction = np.maximum(1.0 + np.einsum("nk,nk->n", sh_basis(light_local), _mlp(self.arrays, "d", x)), 0.0)
-        out = np.empty(albedo.shape + (2,))
+        out = np.empty(albedo.shape + (len(SHARES),))
         for c in range(albedo.shape[1]):
             out[:, c] = albedo[:, c, None] * _softplus(_mlp(self.arrays, "i", np.column_stack([x, albedo[:, c]])))
         return out * direction[:, None, None]

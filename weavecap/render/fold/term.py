@@ -1,14 +1,15 @@
 """The fold term of ``weavecap render``: the BLIDF's local inter-reflection, added where folds are.
 
-Per vertex, both sides, only where that side is a valley (φ_hv < r):
+Per vertex, both sides, wherever the vertex's view samples meet the garment within r on either
+side (a valley, the walls of a fold, and the crest whose far side is a valley):
 
-    G(x_o) = Σ_lights E · V̄(x_o, ω_i) · S_θ / ρ
+    G(x_o) = Σ_lights E · Σ_s V̄_s(x_o, ω_i) · S_θ,s / ρ
 
-with the descriptors of :mod:`.descriptors` (cached per mesh), V̄ the lit share of the
-neighbourhood's view samples (:func:`.visibility.lit_share`, ``neighbours`` rays a vertex,
-the same for every light, averaged over the valley vertices within SMOOTH r) and S_θ the
-shipped BLIDF (:mod:`.blidf`) given the neighbourhood's albedo (the fabric's, sampled where the
-rays met it). Lights: every delta emitter of the scene
+with the descriptors of :mod:`.descriptors` (cached per mesh), V̄_s the lit shares of the
+neighbourhoods of both sides (:data:`.blidf.SHARES`; :func:`.visibility.lit_share`,
+``neighbours`` rays a vertex and side, the same for every light, averaged over the computed
+vertices within SMOOTH r) and S_θ the shipped BLIDF (:mod:`.blidf`) given the neighbourhood's
+albedo (the fabric's, sampled where the rays met it). Lights: every delta emitter of the scene
 (directional, point, spot) at its irradiance, and the environment (a constant sky or a map)
 as ``sky_directions`` directions over the sphere, each with its radiance × 4π / count. Area
 emitters are not modelled (said in the output).
@@ -17,7 +18,8 @@ Then one pass of ``pass_spp`` samples a pixel (the scene's own camera) interpola
 triangles, takes the side the camera sees, and multiplies by the albedo the surface model
 shows there (its ``ambient`` attribute: the yarns' colours, occlusion and gaps) — so the fold
 light carries the weave's texture while being computed per vertex; no Python call per pixel.
-A flat mesh, or one whose sides have no valley, gets no fold term at all (``has_folds``).
+A flat mesh, or one whose sides have no valley, gets no fold term at all (``has_folds``,
+``--fold auto``); a flat mesh never computes descriptors.
 """
 
 from __future__ import annotations
@@ -38,7 +40,7 @@ import drjit as dr  # noqa: E402  (after the backend chose libLLVM)
 NEIGHBOURS = 32  # view samples of V̄ per vertex and side
 SKY_DIRECTIONS = 16  # directions an environment is taken from
 PASS_SPP = 4  # samples a pixel of the pass that lays the fold term on the image
-SMOOTH = 0.15  # V̄ is averaged over the valley vertices within this × r (more samples, less noise)
+SMOOTH = 0.15  # V̄ is averaged over the computed vertices within this × r (more samples, less noise)
 PLANAR = 1e-6  # a mesh thinner than this × its size across its best plane is flat
 ATTRIBUTES = ("vertex_fold_front", "vertex_fold_back")
 
@@ -119,41 +121,54 @@ def vertex_gain(scene, garment, vertices, faces, desc, model: B.BLIDF, *, neighb
                 sky_directions: int = SKY_DIRECTIONS, seed: int = 0, asg: dict | None = None) -> tuple[np.ndarray, dict]:
     """G (2, V, 3): per side and vertex, what the albedo of a point multiplies into its fold light.
 
-    Only the vertices of a side that is a valley there are computed; the others stay 0. V̄ is
-    the lit share of ``neighbours`` view samples, or with ``asg`` ({side: (V, lobes, 6)}, fitted
-    by :func:`.visibility.fit_asg` for this mesh) the ASG lobes' value. Returns (G, facts for
-    the output).
+    Every vertex whose view samples meet the garment within r on either side is computed, on
+    both sides (a crest sees nothing of its own but gets the light of the valley behind it
+    through the fabric: :data:`.blidf.SHARES`); the others stay 0. V̄ is the lit share of
+    ``neighbours`` view samples a side, averaged over the computed vertices within SMOOTH r, or
+    for the side's own facing share with ``asg`` ({side: (V, lobes, 6)}, fitted by
+    :func:`.visibility.fit_asg` for this mesh) the ASG lobes' value. Returns (G, facts for the
+    output).
     """
+    from .training import neighbourhood_albedo
+
     V = len(vertices)
     G = np.zeros((2, V, 3))
-    facts = {"lights": 0, "sky_directions": 0, "vertices": [0, 0], "neighbours": neighbours,
+    facts = {"lights": 0, "sky_directions": 0, "vertices": 0, "neighbours": neighbours,
              "visibility": "asg" if asg is not None else "sampled", "notes": []}
+    nb = {side: neighbourhood_samples(scene, garment, vertices, faces, desc, side, neighbours, seed=seed + side)
+          for side in (0, 1)}
+    at = np.flatnonzero(nb[0].found.any(axis=1) | nb[1].found.any(axis=1))
+    facts["vertices"] = int(len(at))
+    if len(at) == 0:
+        return G, facts
+    nb = {side: nb[side].take(at) for side in (0, 1)}
+    own = {}
     for side in (0, 1):
-        at = np.flatnonzero(desc.folded[:, side])
-        facts["vertices"][side] = int(len(at))
-        if len(at) == 0:
+        count = nb[side].found.sum(axis=1)
+        own[side] = nb[side].albedo.sum(axis=1) / np.maximum(count, 1)[:, None]
+    around = {side: neighbourhood_albedo(own[side], own[1 - side]) for side in (0, 1)}
+    points = np.asarray(vertices, np.float64)[at]
+    lights, notes = scene_lights(scene, points, sky_directions=sky_directions)
+    facts["lights"] = sum(1 for l in lights if l.kind != "environment")
+    facts["sky_directions"] = sum(1 for l in lights if l.kind == "environment")
+    facts["notes"] = notes
+    average = smoothing(points, SMOOTH * desc.radius)
+    for light in lights:
+        if not np.any(light.irradiance > 0):
             continue
-        nb = neighbourhood_samples(scene, garment, vertices, faces, desc, side, neighbours, seed=seed + side, at=at)
-        count = nb.found.sum(axis=1)
-        mean_albedo = nb.albedo[nb.found].mean(axis=0) if nb.found.any() else np.full(3, 0.5)
-        around = np.where(count[:, None] > 0, nb.albedo.sum(axis=1) / np.maximum(count, 1)[:, None], mean_albedo)
-        lights, notes = scene_lights(scene, np.asarray(vertices, np.float64)[at], sky_directions=sky_directions)
-        facts["lights"] = sum(1 for l in lights if l.kind != "environment")
-        facts["sky_directions"] = sum(1 for l in lights if l.kind == "environment")
-        facts["notes"] = notes
-        normal = SIDES[side] * desc.normals[at].astype(np.float64)
-        average = smoothing(np.asarray(vertices, np.float64)[at], SMOOTH * desc.radius)
-        for light in lights:
-            if not np.any(light.irradiance > 0):
-                continue
-            vbar = average @ lit_share(scene, nb, light.to_light, desc.radius)
-            if asg is not None:  # the side seen from the lobes, the far side sampled
-                vbar[:, 0] = np.clip(asg_value(asg[side][at].astype(np.float64), normal, light.to_light), 0.0, 1.0)
+        share = {side: average @ lit_share(scene, nb[side], light.to_light, desc.radius) for side in (0, 1)}
+        if asg is not None:  # the sides' own facing shares from the lobes, the rest sampled
+            for side in (0, 1):
+                normal = SIDES[side] * desc.normals[at].astype(np.float64)
+                share[side][:, 0] = np.clip(asg_value(asg[side][at].astype(np.float64), normal, light.to_light),
+                                            0.0, 1.0)
+        for side in (0, 1):
+            vbar = np.concatenate([share[side], share[1 - side]], axis=1)
             lit = vbar.sum(axis=1) > 0
             if not lit.any():
                 continue
             feats, light_local = B.inputs(desc, side, at[lit], light.to_light[lit])
-            gains = model.gain(feats, light_local, around[lit])
+            gains = model.gain(feats, light_local, around[side][lit])
             G[side, at[lit]] += light.irradiance[lit] * np.einsum("nck,nk->nc", gains, vbar[lit])
     return G, facts
 
@@ -168,10 +183,10 @@ def mesh_asg(scene, garment, vertices, faces, desc, *, directions: int = 32, nei
     out = {}
     for side in (0, 1):
         params = np.zeros((len(vertices), 2, 6), np.float32)
-        at = np.flatnonzero(desc.folded[:, side])
+        nb = neighbourhood_samples(scene, garment, vertices, faces, desc, side, neighbours, seed=seed + 7 + side)
+        at = np.flatnonzero(nb.found.any(axis=1))
         if len(at):
-            nb = neighbourhood_samples(scene, garment, vertices, faces, desc, side, neighbours, seed=seed + 7 + side,
-                                       at=at)
+            nb = nb.take(at)
             target = np.stack([lit_share(scene, nb, d, desc.radius)[:, 0] for d in dirs], axis=1)
             normal = SIDES[side] * desc.normals[at].astype(np.float64)
             params[at] = fit_asg(np.zeros_like(target), target, normal, dirs, seed=seed, steps=150)
@@ -247,7 +262,8 @@ def fold_light(scene, mesh, *, seed: int = 0, neighbours: int = NEIGHBOURS, asg:
     t3 = time.perf_counter()
     info = {
         "radius_m": radius.value, "radius_rule": radius.how,
-        "folded_vertices": {"front": facts["vertices"][0], "back": facts["vertices"][1], "of": len(mesh.positions)},
+        "vertices": {"computed": facts["vertices"], "of": len(mesh.positions),
+                     "valleys": {"front": int(desc.folded[:, 0].sum()), "back": int(desc.folded[:, 1].sum())}},
         "lights": facts["lights"], "sky_directions": facts["sky_directions"], "neighbours": facts["neighbours"],
         "visibility": facts["visibility"], "pass_spp": PASS_SPP, "weights_parameters": model.parameters,
         "descriptors_cached": cached, "fold_mean": float(fold.mean()), "notes": facts["notes"],

@@ -194,10 +194,14 @@ def lit_share(scene: "mi.Scene", nb: Neighbours, to_light: np.ndarray, radius: f
     d = np.asarray(to_light, np.float64)
     d = np.broadcast_to(d[:, None] if d.ndim == 2 else d, nb.points.shape)
     cos = np.einsum("vkj,vkj->vk", nb.normals, d)
-    front = lit(scene, nb.points, nb.normals, d, radius) & nb.found
-    back = lit(scene, nb.points, -nb.normals, d, radius) & nb.found
-    return np.stack([(front * np.clip(cos, 0.0, None)).mean(axis=1), (back * np.clip(-cos, 0.0, None)).mean(axis=1)],
-                    axis=1)
+    front, back = np.zeros(nb.found.shape), np.zeros(nb.found.shape)
+    if nb.found.any():  # shadow rays only from the samples found (most rays of an open side find nothing)
+        f = nb.found
+        up = cos[f] > 0  # the side of each sample the light faces; the other is unlit
+        points, normals = nb.points[f], np.where(up[:, None], nb.normals[f], -nb.normals[f])
+        weight = lit(scene, points, normals, d[f], radius) * np.abs(cos[f])
+        front[f], back[f] = np.where(up, weight, 0.0), np.where(up, 0.0, weight)
+    return np.stack([front.mean(axis=1), back.mean(axis=1)], axis=1)
 
 
 # --------------------------------------------------------------------------- ASG
