@@ -107,3 +107,19 @@ def test_the_fold_term_adds_the_same_light_to_the_woven_neural_mode(fabric):
     # the same per-vertex light on the same albedo, whichever renderer lit the image directly (measured 8 % apart:
     # the neural mode samples pixel centres, the direct mode 16 random points a pixel)
     assert added["neural"] == pytest.approx(added["direct"], rel=0.2)
+
+
+def test_a_crest_gets_the_light_of_the_valley_behind_it(fabric):
+    from weavecap.render.fold.blidf import BLIDF
+    from weavecap.render.run import prepare_render
+
+    sine = load_mesh(fixture_path("meshes", "sine_high.obj"))
+    desc, _, _ = term.cached_descriptors(sine.positions, sine.faces, normals=sine.normals)
+    crest = ~desc.folded[:, 0] & desc.folded[:, 1]  # convex on the front, a valley behind
+    assert crest.sum() > 20
+    scene = prepare_render(fabric, sine, RenderOptions(mode="direct", spp=1, size=(16, 9), light="sun",
+                                                       view=(0.0, 35.0))).scene
+    G, facts = term.vertex_gain(scene, term.garment_of(scene), sine.positions, sine.faces, desc, BLIDF.load())
+    assert np.all(np.isfinite(G)) and np.all(G >= 0) and facts["vertices"] == len(sine.positions)
+    # the front of a crest sees no garment of its own: its light comes through the fabric from behind
+    assert np.mean(G[0, crest].sum(axis=1) > 0) > 0.9

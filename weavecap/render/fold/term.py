@@ -37,7 +37,7 @@ from .visibility import SIDES, albedo, asg_value, fibonacci_sphere, fit_asg, lit
 mi = mitsuba()
 import drjit as dr  # noqa: E402  (after the backend chose libLLVM)
 
-NEIGHBOURS = 32  # view samples of V̄ per vertex and side
+NEIGHBOURS = 64  # view samples of V̄ per vertex and side (skirt, 96x54 vs LocalPT 1024 spp: gain 1.70x at 32, 1.89x at 64)
 SKY_DIRECTIONS = 16  # directions an environment is taken from
 PASS_SPP = 4  # samples a pixel of the pass that lays the fold term on the image
 SMOOTH = 0.15  # V̄ is averaged over the computed vertices within this × r (more samples, less noise)
