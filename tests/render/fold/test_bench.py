@@ -25,7 +25,7 @@ def row(mesh, seen, direct, fold, noise=0.0001):
             "rmse_localpt": {"direct": direct, "direct_fold": fold, "direct_fold_k4": fold * 1.2},
             "rmse_pt": {"direct": direct * 1.5, "direct_fold": fold * 1.5},
             "equal_time": {"spp_fold": 64, "spp_localpt": 200, "rmse_fold": 0.008, "rmse_localpt": 0.005},
-            "seconds": {"fold": 1.0, "fold_k4": 0.5}, "fold_detail": {"weights_parameters": 1466},
+            "seconds": {"fold": 1.0, "fold_k4": 0.5}, "fold_detail": {"weights_parameters": 1500, "neighbours": 64},
             "local_equal_time": {"seconds_fold": 1.0, "spp_localpt": 300, "rmse_fold": fold, "rmse_localpt": fold * 1.1}}
 
 
@@ -45,6 +45,7 @@ def test_summary_gives_the_done_when_figures():
     text = bench.table(result)
     assert "| a | yes | 30 | 0.00200 | 0.00010 | 0.00200 | 0.00100 | 2.00× |" in text
     assert "Unseen / seen RMSE: 1.33 (absolute)" in text and "| towel | 10.0 | 1.00 | 10 % | 0.00100 |" in text
+    assert "| Sampling | 64 view samples | Seen |" in text  # the count the run used
 
 
 def test_picture_is_one_labelled_row_per_mesh(tmp_path):

@@ -340,6 +340,8 @@ def table(result: dict) -> str:
     lines += ["", "Table 6 form (visibility):", "", "| Method | Configuration | Seen/Unseen | RMSE | Time (s) |",
               "|---|---|---|---|---|"]
 
+    neighbours = next((r["fold_detail"]["neighbours"] for r in rows if r["fold_detail"]), "?")  # what the run used
+
     def mean_of(key, seen, seconds):
         sel = [r for r in rows if r["seen"] == seen and key in r["rmse_localpt"]]
         if not sel:
@@ -348,7 +350,7 @@ def table(result: dict) -> str:
 
     for label, config, key, seconds in (("ASG (fitted)", "2 lobes", "direct_fold_asg", "fold_asg"),
                                         ("Sampling", "4 view samples", "direct_fold_k4", "fold_k4"),
-                                        ("Sampling", "32 view samples", "direct_fold", "fold")):
+                                        ("Sampling", f"{neighbours} view samples", "direct_fold", "fold")):
         for seen in (True, False):
             got = mean_of(key, seen, seconds)
             if got is not None:
