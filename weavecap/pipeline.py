@@ -192,20 +192,22 @@ def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), 
             raise wparams.ParamsError(f"--start-from has a {start.shape[0]}x{start.shape[1]} pattern but the photo's "
                                       f"repeat is {shape[0]}x{shape[1]}", field="pattern")
         report["pre_estimation"] = {"parameters_from": "start_from"}
-        gain = 1.0
     else:
         pre = pre_estimate(prepared.regularized.image, cells, light=light, use_network=options.use_network)
-        start, gain = pre.fabric, pre.gain
+        start = pre.fabric
         report["pre_estimation"] = pre.to_json()
     if options.pattern is not None:
         start = start.replace({"pattern": options.pattern})
     timings["pre_estimate"] = time.perf_counter() - t
 
     if options.light == "auto":
-        light, losses = choose_rig(prepared, cells, start, c=c, spp=config.spp, gain=gain)
+        light, losses = choose_rig(prepared, cells, start, c=c, spp=config.spp)
         light_reason = "the rig whose render, colours and gain solved, explains the photo best: " + ", ".join(
             f"{k} {v:.4g}" for k, v in losses.items())
-    rig = light_rig(light).with_gain(gain)  # the photo's exposure as the pre-estimate found it
+    # the fit starts at unit gain and solves its own (:func:`weavecap.fit.joint.solve_colours`):
+    # started at the pre-estimate's exposure, found with its guessed specular terms, an own-render
+    # twill stayed at 2.1 times the truth's gain (27.6 dB; 34.8 from unit gain)
+    rig = light_rig(light)
     t = time.perf_counter()
     # what this photo can show: values no render of its repeat sees are held, not fitted
     plan = modelled.plan(start, cell_px=c, fixed=frozenset({"pattern"}) if options.pattern is not None else frozenset())

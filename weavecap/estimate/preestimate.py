@@ -61,7 +61,7 @@ class PreEstimate:
     timings_s : seconds per step.
     gain : the photo's exposure against the light rig, at least 1: the gain at which a
         first estimate's largest body colour (§5.2, :attr:`~.colour.Colours.exposure`) is 1. Everything
-        above was estimated on the photo divided by it, and the fit's rig starts at it. A
+        above was estimated on the photo divided by it (the fit solves its own gain). A
         well exposed white yarn sits at 0.6–0.9 while the rig's white fabric renders at a
         median of 0.18: estimated on the photo as it is, every colour ended at its clamp,
         the radius search went to the corners of its grid and the fit started from there (an

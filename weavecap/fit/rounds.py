@@ -169,14 +169,13 @@ def same_within_noise(a: RegisteredFit, b: RegisteredFit, *, spp: int, z: float 
 
 
 def choose_rig(prepared, cells, fabric: wparams.Fabric, *, c: int, spp: int,
-               names: tuple[str, ...] = ("both", "front"), gain: float = 1.0) -> tuple[str, dict]:
+               names: tuple[str, ...] = ("both", "front")) -> tuple[str, dict]:
     """The light rig (§6.4) that explains the photo best for ``--light auto``: ``fabric`` under
     each of ``names``, the photo's median repeat registered on its render, its colours and the
     rig's gain solved in closed form (:func:`weavecap.fit.joint.solve_colours`), and the rig
     with the lower loss wins. A back-lit photo's gaps glow and its yarns let the light through;
     a front-lit one has neither, and a rig with a back light then explains it worse (and the
-    other way round). ``gain``: the photo's exposure the rigs start from (the pre-estimate's).
-    Returns the name and each rig's loss."""
+    other way round). Returns the name and each rig's loss."""
     from ..estimate.forward import BLUR_CELLS, RepeatRenderer
     from ..model.render import blurred_mse, render_numpy, white_level
     from ..model.scene import View, build_scene, light_rig
@@ -184,7 +183,7 @@ def choose_rig(prepared, cells, fabric: wparams.Fabric, *, c: int, spp: int,
 
     losses = {}
     for name in names:
-        rig = light_rig(name).with_gain(gain)
+        rig = light_rig(name)
         model = RepeatRenderer(fabric, cell_px=c, light=rig, blur_cells=BLUR_CELLS,
                                white=white_level(prepared.rectification.image)).render()
         _, _, target = _registered_target(prepared, cells, model, c)

@@ -64,13 +64,19 @@ def align_cells(image: np.ndarray, cells: CellGrid) -> CellGrid:
     window = c / 12  # ± px around each candidate: a gap's two edges, not the yarn's shading
     canvas = cell_canvas(image, cells, c)
     centre = (np.arange(c) + 0.5)
-    shift = []
-    for m, profile in zip(mirror_phase(canvas, cells.shape), edge_profile(canvas, cells.shape)):
+    moved = []
+    for m, profile, bounds, size in zip(mirror_phase(canvas, cells.shape), edge_profile(canvas, cells.shape),
+                                        (cells.rows, cells.cols), image.shape[:2]):
         energy = [profile[np.abs((centre - k + c / 2) % c - c / 2) <= window].mean() for k in (m, m + c / 2)]
         k = m if energy[0] >= energy[1] else m + c / 2
-        shift.append(float(k % c))  # forward: the repeat stays inside the image (none read reflected)
-    return CellGrid(rows=cells.rows + shift[0] / c * np.diff(cells.rows).mean(),
-                    cols=cells.cols + shift[1] / c * np.diff(cells.cols).mean())
+        pitch = float(np.diff(bounds).mean())
+        shift = ((k + c / 2) % c - c / 2) / c * pitch  # the smaller move, either way, in pixels ...
+        if bounds[0] + shift < 0 or bounds[-1] + shift > size:  # ... unless it leaves the image
+            other = shift - np.sign(shift) * pitch
+            if bounds[0] + other >= 0 and bounds[-1] + other <= size:
+                shift = other
+        moved.append(bounds + shift)
+    return CellGrid(rows=moved[0], cols=moved[1])
 
 
 def correlation_shift(photo: np.ndarray, model: np.ndarray) -> np.ndarray:
