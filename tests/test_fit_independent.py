@@ -40,37 +40,6 @@ def test_draft_recovers_an_independent_photo(name, tmp_path):
     assert "specular.coefficient" in cap.report["modelled"]["fixed"]
 
 
-def _lattice_phase(spec: hp.PhotoSpec, prepared, cells) -> np.ndarray:
-    """Where ``cells`` (a CellGrid in the regularized box) put the cell corners on the
-    generator's fabric: (weft axis, warp axis) phase in cells, in (-0.5, 0.5]; 0 = on the gaps
-    (the generator's yarn centres sit at (k + 1/2) pitches)."""
-    box = prepared.regularized.box
-    to_fabric = np.linalg.inv(hp.homography(spec)) @ np.linalg.inv(prepared.rectification.homography)
-    y, x = np.meshgrid(cells.rows + box[0] - 0.5, cells.cols + box[1] - 0.5, indexing="ij")  # pixel centres
-    q = to_fabric @ np.stack([x.ravel(), y.ravel(), np.ones(x.size)])
-    u, v = q[0] / q[2], q[1] / q[2]
-    return np.array([np.angle(np.mean(np.exp(2j * np.pi * t / p))) / (2 * np.pi)
-                     for t, p in ((v, spec.pitch_px[1]), (u, spec.pitch_px[0]))])
-
-
-@pytest.mark.parametrize("name", ["04_twill31_b", "05_twill22_a", "09_satin8_weft", "15_plain_backlit"])
-def test_aligned_cells_sit_on_the_gap_lattice(name, tmp_path):
-    """Bench photos (at 640 px) on which the half-cell choice went wrong when it was made by the
-    variance of corner and centre windows (0.31–0.48 cell off on an axis): the cell corners now
-    lie on the generator's gaps to within a quarter cell (measured 0.01–0.20: oblique light
-    shades the yarns unevenly and moves their centres of symmetry)."""
-    from weavecap.fit.target import align_cells, repeat_cells
-    from weavecap.photo import load_photo
-    from weavecap.prepare import prepare_photo
-
-    spec = hp.with_camera(next(s for s in hp.bench_specs() if s.name == name), size_px=(640, 640))
-    prepared = prepare_photo(load_photo(hp.write_photo(tmp_path / f"{name}.jpg", spec, seed=3)).rgb)
-    cells = repeat_cells(prepared, prepared.regularized.box)
-    assert cells.shape == spec.pattern.shape
-    phase = _lattice_phase(spec, prepared, align_cells(prepared.regularized.image, cells))
-    assert np.all(np.abs(phase) < 0.25), phase
-
-
 def test_a_photo_brighter_than_the_rig_is_not_blown_out(tmp_path):
     """The bench's back-lit pink and green twill 2/1, 0.85 stop over (at 640 px, draft): the
     photo is brighter than the rig can make a white fabric. The fit once ended with every

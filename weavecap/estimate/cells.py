@@ -165,21 +165,6 @@ def gap_phase(canvas: np.ndarray, shape: tuple[int, int]) -> tuple[float, float]
     return out[0], out[1]
 
 
-def edge_profile(canvas: np.ndarray, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
-    """How steeply the luminance changes across each position of a cell, model-free: the mean
-    |∂√I/∂y| along each row of the canvas (|∂√I/∂x| along each column), folded over the
-    cells. Returns two (c,) profiles (y, then x), pixel i at i + 0.5 of the cell; yarn edges
-    make their peaks, on either side of every gap. ``canvas`` (n_e*c, n_a*c, ...) wraps."""
-    n_e, n_a = shape
-    y = np.sqrt(np.clip(np.asarray(canvas, np.float64), 0.0, None))
-    y = y.mean(axis=2) if y.ndim == 3 else y
-    out = []
-    for axis, n in ((0, n_e), (1, n_a)):
-        slope = 0.5 * np.abs(np.roll(y, -1, axis) - np.roll(y, 1, axis)).mean(axis=1 - axis)
-        out.append(slope.reshape(n, -1).mean(axis=0))
-    return out[0], out[1]
-
-
 def _circular_peak(values: np.ndarray) -> float:
     """Index of the maximum of a circular 1-D array, to a fraction of a sample: the vertex of
     the parabola through it and its two neighbours (the integer index where that is flat)."""

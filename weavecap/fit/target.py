@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..estimate.cells import CellGrid, cell_canvas, edge_profile, gap_phase, mirror_phase
+from ..estimate.cells import CellGrid, cell_canvas, gap_phase, mirror_phase
 from ..params import Fabric
 
 DRIFT_MAX_CELLS = 0.5  # a repeat's offset beyond this (cells) is a mismatch, not drift
@@ -41,42 +41,40 @@ def shifted(cells: CellGrid, box) -> CellGrid:
 
 def align_cells(image: np.ndarray, cells: CellGrid) -> CellGrid:
     """Put the cell corners on the gaps between yarns (§5's cells are centred on yarn
-    crossings): onto a centre of mirror symmetry of the projections
-    (:func:`weavecap.estimate.cells.mirror_phase`, sub-pixel: the gaps or the yarn centres,
-    half a cell apart), along each axis the one of the two with the more edge energy around it
-    (:func:`weavecap.estimate.cells.edge_profile`): a gap, dark or bright, is flanked by two
-    yarn edges within a few pixels, a yarn's middle is a smooth extremum of its shading.
+    crossings): first onto a centre of mirror symmetry of the projections (sub-pixel,
+    :func:`weavecap.estimate.cells.mirror_phase`: the gaps or the yarn centres), then, of the
+    four half-pitch shifts of that lattice, the one whose corners vary most and whose centres
+    vary least.
 
     The yarn boundaries of §4.4 are valleys of the integral projection — right under front
     light, where gaps are dark, but off under back light, where they glow: there the valley is
     wherever the yarn is darkest, half a pitch from the gap give or take the yarn's shading (a
     sixth of a cell on the fixtures' plain weave, and every estimate of the pre-estimate is
     then made on the wrong cells: the true fabric scored 19.6 dB against that canvas, 33.4 dB
-    registered). On the 18 independent bench photos, measured against the generator's
-    lattice, the half-cell choice is wrong on 4 of 36 axes (two of them where the symmetry
-    centre itself is a quarter cell off, one where preparation found another repeat); it was
-    wrong on 11 when made by the variance of corner and centre windows. The curvature peak
-    (:func:`weavecap.estimate.cells.gap_phase`) alone is off by a quarter cell on the
-    fixtures' thin round yarns (their true fabric 24–29 dB on its cells, 26–33 dB on these).
-    ``image`` (H, W, 3) linear RGB, ``cells`` a CellGrid in its pixels.
+    registered). A corner window holds a gap and four yarn edges whatever the light; a centre
+    window sits on a smooth crossing. ``image`` (H, W, 3) linear RGB, ``cells`` a CellGrid in
+    its pixels.
     """
-    c = 24
-    window = c / 12  # ± px around each candidate: a gap's two edges, not the yarn's shading
-    canvas = cell_canvas(image, cells, c)
-    centre = (np.arange(c) + 0.5)
-    moved = []
-    for m, profile, bounds, size in zip(mirror_phase(canvas, cells.shape), edge_profile(canvas, cells.shape),
-                                        (cells.rows, cells.cols), image.shape[:2]):
-        energy = [profile[np.abs((centre - k + c / 2) % c - c / 2) <= window].mean() for k in (m, m + c / 2)]
-        k = m if energy[0] >= energy[1] else m + c / 2
-        pitch = float(np.diff(bounds).mean())
-        shift = ((k + c / 2) % c - c / 2) / c * pitch  # the smaller move, either way, in pixels ...
-        if bounds[0] + shift < 0 or bounds[-1] + shift > size:  # ... unless it leaves the image
-            other = shift - np.sign(shift) * pitch
-            if bounds[0] + other >= 0 and bounds[-1] + other <= size:
-                shift = other
-        moved.append(bounds + shift)
-    return CellGrid(rows=moved[0], cols=moved[1])
+    c = 12
+    win = max(1, c // 4)
+    sy, sx = mirror_phase(cell_canvas(image, cells, c), cells.shape)
+    sy, sx = (sy + c / 4) % (c / 2) - c / 4, (sx + c / 4) % (c / 2) - c / 4  # the centre nearest the corners
+    cells = CellGrid(rows=cells.rows + sy / c * np.diff(cells.rows).mean(),
+                     cols=cells.cols + sx / c * np.diff(cells.cols).mean())
+    best, best_score = cells, -np.inf
+    for dy in (0.0, 0.5):
+        for dx in (0.0, 0.5):
+            moved = CellGrid(rows=cells.rows + dy * np.diff(cells.rows).mean(),
+                             cols=cells.cols + dx * np.diff(cells.cols).mean())
+            grey = cell_canvas(image, moved, c).mean(axis=2)
+            tiles = grey.reshape(moved.shape[0], c, moved.shape[1], c).transpose(0, 2, 1, 3)
+            centre = tiles[:, :, c // 2 - win: c // 2 + win, c // 2 - win: c // 2 + win]
+            corner = np.roll(np.roll(grey, win, axis=0), win, axis=1)
+            corner = corner.reshape(moved.shape[0], c, moved.shape[1], c).transpose(0, 2, 1, 3)[:, :, :2 * win, :2 * win]
+            score = float(corner.var(axis=(2, 3)).mean() - centre.var(axis=(2, 3)).mean())
+            if score > best_score:
+                best, best_score = moved, score
+    return best
 
 
 def correlation_shift(photo: np.ndarray, model: np.ndarray) -> np.ndarray:
