@@ -210,12 +210,13 @@ def test_the_end_stage_fits_the_best_named_weave_even_when_it_looked_worse_unfit
     assert np.array_equal(out.result.fabric.pattern, named) and out.notes["named_weave"]["taken"]
 
 
-@pytest.mark.parametrize("named_loss, taken", [(0.0104, True), (0.0205, False)])
+@pytest.mark.parametrize("named_loss, taken", [(0.0104, True), (0.0198, False), (0.0205, False)])
 def test_the_votes_only_break_near_ties_at_the_end_stage(monkeypatch, named_loss, taken):
     """The real twill W057: its custom 4×4 fit left 0.0201, the twill 3/1 fitted with its
     pattern fixed 0.0104, yet the votes (every cell "weft on top": agreement 0.12 with the
     twill, 0.35 with the custom pattern) kept the custom one. A named weave that explains the
-    photo better is taken; within the 5% tolerance above the custom loss the votes decide."""
+    photo clearly better is taken; within 5% of the custom loss either way (the bench's random
+    4×4: a twill 2/2 1.3% lower) the votes decide."""
     from types import SimpleNamespace
 
     from weavecap import pipeline
