@@ -204,6 +204,9 @@ def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), 
         light, losses = choose_rig(prepared, cells, start, c=c, spp=config.spp)
         light_reason = "the rig whose render, colours and gain solved, explains the photo best: " + ", ".join(
             f"{k} {v:.4g}" for k, v in losses.items())
+    # the fit starts at unit gain and solves its own (:func:`weavecap.fit.joint.solve_colours`):
+    # started at the pre-estimate's exposure, found with its guessed specular terms, an own-render
+    # twill stayed at 2.1 times the truth's gain (27.6 dB; 34.8 from unit gain)
     rig = light_rig(light)
     t = time.perf_counter()
     # what this photo can show: values no render of its repeat sees are held, not fitted

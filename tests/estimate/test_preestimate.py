@@ -25,3 +25,24 @@ def test_twill_photo(twill_fabric, use_network):
     report = est.to_json()
     assert report["weave"] == "twill 2/1 S" and report["parameters_from"] == est.source
     assert set(report["timings_s"]) == {"pattern", "network", "parameters", "refine"}
+
+
+def test_a_photo_brighter_than_the_rig_is_estimated_at_its_exposure(twill_fabric):
+    """The same photo 2 and 4 times brighter (both beyond what the rig makes of a white fabric):
+    the pre-estimate finds gains in that ratio and the same colours (the brightest channel at
+    1, not every one), where without the gain every body colour ended at 1 (issue 11: the fit
+    then blew out to white)."""
+    from weavecap.estimate.colour import linear_to_lab
+
+    photo, grid, _ = photo_of(twill_fabric, cell_px=12)
+    base = pre_estimate(photo, grid, use_network=False)
+    est = {k: pre_estimate(photo * k * max(1.0, base.gain), grid, use_network=False) for k in (2.0, 4.0)}
+    assert est[4.0].gain / est[2.0].gain == pytest.approx(2.0, rel=0.02)
+    for yarn in ("warp", "weft"):
+        a, b = (np.asarray(getattr(e.colours, yarn)) for e in est.values())
+        assert np.linalg.norm(linear_to_lab(a) - linear_to_lab(b)) < 3.0, (yarn, a, b)
+        assert np.min(a) < 0.99, (yarn, a)  # not white: the clamp does not decide
+    warp = np.asarray(est[4.0].colours.warp)
+    assert np.argmax(warp) == 2 and np.mean(est[4.0].colours.weft) > np.mean(warp)  # blue warp, light weft
+    assert equal_up_to_shift(est[4.0].fabric.pattern, twill_fabric.pattern)
+    assert est[4.0].to_json()["exposure_gain"] == pytest.approx(est[4.0].gain, rel=1e-3)

@@ -41,6 +41,10 @@ class Colours:
     sensitivity : (warp, weft): how much the yarn's own cell average moves per unit of its body
         colour in the model (mean over channels). Small values (a very transparent or very
         specular yarn) mean the photo shows little of that colour, and its estimate is loose.
+    exposure : the smallest g for which the photo divided by g needs no body colour above 1
+        (the colours are affine in the photo, and the colour-free light stays): above 1 the
+        photo is brighter than the light rig can make this fabric (its exposure,
+        :attr:`weavecap.estimate.preestimate.PreEstimate.gain`); NaN when no g does.
     """
 
     warp: tuple[float, float, float]
@@ -49,6 +53,7 @@ class Colours:
     observed: dict
     specular_visible: bool
     sensitivity: tuple[float, float] = (float("nan"), float("nan"))
+    exposure: float = float("nan")
 
     def values(self) -> dict:
         """As dotted keys of :class:`weavecap.params.Fabric`."""
@@ -146,14 +151,22 @@ def estimate_colours(canvas: np.ndarray, fabric: Fabric, *, cell_px: int, light:
         responses.append(_observe_render(rr, pattern, obs))
     base, d_warp, d_weft = responses[0], responses[1] - responses[0], responses[2] - responses[0]
     target = np.stack([obs["warp"], obs["weft"]])
-    body = np.zeros((2, 3))
+    # the body colours are affine in the photo: body = P - Q, P explaining the photo's cell
+    # averages, Q the colour-free light (the render with both colours black)
+    explain = np.zeros((2, 2, 3))
     for ch in range(3):
         a = np.stack([d_warp[:2, ch], d_weft[:2, ch]], axis=1)[rows]  # (rows, 2 unknowns)
-        b = (target[:, ch] - base[:2, ch])[rows]
-        if rows.all():
-            body[:, ch] = np.linalg.lstsq(a, b, rcond=None)[0]
-        else:  # one yarn never on top: both get the colour that explains what is seen
-            body[:, ch] = (b / np.maximum(a.sum(axis=1), 1e-9)).mean()
+        for k, seen in enumerate((target[:, ch], base[:2, ch])):
+            b = seen[rows]
+            if rows.all():
+                explain[k, :, ch] = np.linalg.lstsq(a, b, rcond=None)[0]
+            else:  # one yarn never on top: both get the colour that explains what is seen
+                explain[k, :, ch] = (b / np.maximum(a.sum(axis=1), 1e-9)).mean()
+    p, q = explain[0][rows], explain[1][rows]
+    body = explain[0] - explain[1]
+    # the photo divided by g gives body P / g - Q: the smallest g that keeps every one <= 1
+    reach = (p > 0) & (1 + q > 0)
+    exposure = float(np.max(p[reach] / (1 + q[reach]))) if reach.any() else float("nan")
     body = np.clip(body, 0.0, 1.0)
     _body(rr, "warp", tuple(body[0]))
     _body(rr, "weft", tuple(body[1]))
@@ -170,7 +183,7 @@ def estimate_colours(canvas: np.ndarray, fabric: Fabric, *, cell_px: int, light:
                    specular=tuple(map(float, specular)),
                    observed={k: [round(float(x), 5) for x in obs[k]] for k in ("warp", "weft", "bright")},
                    specular_visible=visible,
-                   sensitivity=(float(np.mean(d_warp[0])), float(np.mean(d_weft[1]))))
+                   sensitivity=(float(np.mean(d_warp[0])), float(np.mean(d_weft[1]))), exposure=exposure)
 
 
 # ----------------------------------------------------------------------------- CIELAB

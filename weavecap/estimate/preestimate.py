@@ -59,6 +59,14 @@ class PreEstimate:
     mse : the pre-estimated fabric's render against the photo's canvas at its own pitch
         (linear RGB²).
     timings_s : seconds per step.
+    gain : the photo's exposure against the light rig, at least 1: the gain at which a
+        first estimate's largest body colour (§5.2, :attr:`~.colour.Colours.exposure`) is 1. Everything
+        above was estimated on the photo divided by it (the fit solves its own gain). A
+        well exposed white yarn sits at 0.6–0.9 while the rig's white fabric renders at a
+        median of 0.18: estimated on the photo as it is, every colour ended at its clamp,
+        the radius search went to the corners of its grid and the fit started from there (an
+        independent bench twill 2/1 at 0.85 stop over: body colours 1, radii 5 and 1, then
+        a gain of 53 and a render blown to white).
     """
 
     fabric: Fabric
@@ -69,6 +77,7 @@ class PreEstimate:
     weave: str
     mse: float
     timings_s: dict = field(default_factory=dict)
+    gain: float = 1.0
 
     def to_json(self) -> dict:
         """The ``pre_estimation`` part of report.json."""
@@ -79,6 +88,7 @@ class PreEstimate:
                             "specular": list(self.colours.specular),
                             "specular_visible": self.colours.specular_visible},
                 "parameters_from": self.source, "reason": self.reason, "mse": self.mse,
+                "exposure_gain": round(self.gain, 4),
                 "timings_s": {k: round(v, 3) for k, v in self.timings_s.items()}}
 
 
@@ -116,14 +126,21 @@ def pre_estimate(image: np.ndarray, grid: CellGrid, *, light: str = "both", use_
 
     Returns
     -------
-    :class:`PreEstimate`.
+    :class:`PreEstimate`, estimated on ``image`` divided by its exposure gain.
     """
     timings: dict[str, float] = {}
     t = time.perf_counter()
     canvas = cell_canvas(image, grid, PATTERN_CELL_PX)
     start = twill_start(grid.shape)
     rr = RepeatRenderer(default_fabric(start), cell_px=PATTERN_CELL_PX, light=light)
-    grey = _grey(estimate_colours(canvas, rr.fabric, cell_px=PATTERN_CELL_PX, renderer=rr))
+    first_colours = estimate_colours(canvas, rr.fabric, cell_px=PATTERN_CELL_PX, renderer=rr)
+    # the photo's exposure: a photo brighter than the rig's white fabric is divided by the
+    # gain that brings its colours within reach (see PreEstimate.gain)
+    gain = max(1.0, first_colours.exposure) if np.isfinite(first_colours.exposure) else 1.0
+    if gain > 1.0:
+        image, canvas = np.asarray(image, np.float32) / np.float32(gain), canvas / np.float32(gain)
+        first_colours = estimate_colours(canvas, rr.fabric, cell_px=PATTERN_CELL_PX, renderer=rr)
+    grey = _grey(first_colours)
     rr.set({"warp.body_reflection": grey, "warp.body_subsurface": grey,
             "weft.body_reflection": grey, "weft.body_subsurface": grey})
     rr.white = white_level(image)  # from here on renders are compared as photographed (clipped)
@@ -165,7 +182,11 @@ def pre_estimate(image: np.ndarray, grid: CellGrid, *, light: str = "both", use_
     result = anneal_pattern(canvas, RepeatRenderer(fabric, cell_px=PATTERN_CELL_PX, light=light,
                                                    white=white_level(image)), start=first.pattern)
     fabric, colours, crr = _coloured(fabric.replace({"pattern": result.pattern}), image, grid, light)
+    if np.isfinite(colours.exposure) and colours.exposure > 1.0:  # this fabric needs a little more
+        gain, image = gain * colours.exposure, image / np.float32(colours.exposure)
+        colour_canvas = colour_canvas / np.float32(colours.exposure)
+        fabric, colours, crr = _coloured(fabric, image, grid, light)
     mse = float(np.mean(np.square(crr.render() - colour_canvas)))
     timings["refine"] = time.perf_counter() - t
     return PreEstimate(fabric=fabric, pattern=result, colours=colours, source=source, reason=reason,
-                       weave=weave_name(result.pattern), mse=mse, timings_s=timings)
+                       weave=weave_name(result.pattern), mse=mse, timings_s=timings, gain=gain)

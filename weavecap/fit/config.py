@@ -56,8 +56,9 @@ class FitConfig:
         the three planned rounds, 28.6 dB with 300 steps)
     named_weave_tolerance : a fitted custom pattern gives way to the named weave of its shape
         (plain, twill, satin, basket, rib) when that, fitted with its pattern fixed, leaves a
-        loss at most this fraction higher: a named weave is far likelier a priori than one that
-        differs from it in a cell or two
+        loss lower by more than this fraction, or within it either way unless the votes back
+        the custom pattern (``vote_margin``): a named weave is far likelier a priori than one
+        that differs from it in a cell or two
     family_colours : end each fit on the photo's own yarn colours: scale each family's body
         colours so that its mean at the centres of the cells it tops matches the photo's
         (:func:`weavecap.fit.joint.match_family_colours`, §5.2); kept unless the loss rises

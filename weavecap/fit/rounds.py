@@ -299,11 +299,16 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
             last = _fit_round(prepared, best.cells, best.result.fabric.replace({"pattern": named}), best.rig, per_round,
                               c=c, fixed=fixed | {"pattern"}, seed=options.seed + k, budget_s=budget(runs - 1))
             history += last.result.history
-            # within the tolerance a named weave is likelier a priori — unless the photo's own
-            # votes back the custom pattern better (a random weave a cell or two off a twill)
+            # a named weave that explains the photo clearly better (by more than the tolerance)
+            # is taken; within the tolerance either way it is likelier a priori — unless the
+            # photo's own votes back the custom pattern better (the bench's random 4x4, a twill
+            # 2/2 1.3% lower). The votes only break near-ties: the real twill W057's votes
+            # (every cell "weft on top") had vetoed a twill 3/1 whose loss was half its custom 4x4's
             votes_named, votes_custom = last.agreement(), best.agreement()
-            taken = (last.result.loss <= best.result.loss * (1.0 + config.named_weave_tolerance)
-                     and votes_named >= votes_custom - config.vote_margin)
+            tolerance = config.named_weave_tolerance
+            taken = last.result.loss < best.result.loss * (1.0 - tolerance) or (
+                last.result.loss <= best.result.loss * (1.0 + tolerance)
+                and votes_named >= votes_custom - config.vote_margin)
             notes["named_weave"] = {"pattern": named.astype(int).tolist(), "loss": round(last.result.loss, 6),
                                     "fitted_loss": round(best.result.loss, 6), "taken": taken,
                                     "votes_agree": [round(votes_named, 3), round(votes_custom, 3)]}
