@@ -32,7 +32,8 @@ import numpy as np
 from ...backend import mitsuba
 from . import blidf as B
 from .descriptors import cached_descriptors
-from .visibility import SIDES, albedo, asg_value, fibonacci_sphere, fit_asg, lit_share, neighbourhood_samples
+from .visibility import (SIDES, albedo, asg_value, fibonacci_sphere, fit_asg, lit_share, neighbourhood_albedo,
+                         neighbourhood_samples)
 
 mi = mitsuba()
 import drjit as dr  # noqa: E402  (after the backend chose libLLVM)
@@ -129,8 +130,6 @@ def vertex_gain(scene, garment, vertices, faces, desc, model: B.BLIDF, *, neighb
     :func:`.visibility.fit_asg` for this mesh) the ASG lobes' value. Returns (G, facts for the
     output).
     """
-    from .training import neighbourhood_albedo
-
     V = len(vertices)
     G = np.zeros((2, V, 3))
     facts = {"lights": 0, "sky_directions": 0, "vertices": 0, "neighbours": neighbours,
@@ -142,11 +141,7 @@ def vertex_gain(scene, garment, vertices, faces, desc, model: B.BLIDF, *, neighb
     if len(at) == 0:
         return G, facts
     nb = {side: nb[side].take(at) for side in (0, 1)}
-    own = {}
-    for side in (0, 1):
-        count = nb[side].found.sum(axis=1)
-        own[side] = nb[side].albedo.sum(axis=1) / np.maximum(count, 1)[:, None]
-    around = {side: neighbourhood_albedo(own[side], own[1 - side]) for side in (0, 1)}
+    around = {side: neighbourhood_albedo(nb[side].mean_albedo(), nb[1 - side].mean_albedo()) for side in (0, 1)}
     points = np.asarray(vertices, np.float64)[at]
     lights, notes = scene_lights(scene, points, sky_directions=sky_directions)
     facts["lights"] = sum(1 for l in lights if l.kind != "environment")

@@ -33,7 +33,7 @@ import numpy as np
 
 from . import blidf as B
 from .descriptors import cached_descriptors
-from .visibility import SIDES, fibonacci_sphere, hat_points, lit_share, neighbourhood_samples
+from .visibility import SIDES, fibonacci_sphere, hat_points, lit_share, neighbourhood_albedo, neighbourhood_samples
 
 Progress = Callable[[str], None]
 
@@ -217,7 +217,6 @@ def make_mesh_shards(work: Path, mesh: FoldMesh, index: int, config: TrainConfig
             to_light = np.broadcast_to(lights[light], (len(at), 3))
             for side in (0, 1):
                 nb = near[f][side].take(pick)
-                count = nb.found.sum(axis=1)
                 feats, light_local = B.inputs(desc, side, at, to_light)
                 points, normals = (a[pick].reshape(-1, 3) for a in hats[side])
                 target = radiance_leaving(scene, integrator, points, normals, normals, spp=config.paths,
@@ -226,7 +225,7 @@ def make_mesh_shards(work: Path, mesh: FoldMesh, index: int, config: TrainConfig
                 rows["features"].append(feats)
                 rows["light_local"].append(light_local)
                 rows["vbar"].append(lit_share(scene, nb, lights[light], r))
-                rows["albedo"].append(nb.albedo.sum(axis=1) / np.maximum(count, 1)[:, None])
+                rows["albedo"].append(nb.mean_albedo())
                 rows["albedo_here"].append(here.reshape(len(at), config.hat_points, 3).mean(axis=1))
                 rows["target"].append(target.reshape(len(at), config.hat_points, 3).mean(axis=1))
                 rows["vertex"].append(at)
@@ -276,7 +275,7 @@ def both_sides(shard) -> dict:
     """A shard's rows with both sides of their vertex: ``vbar`` (N, 4), the four shares of
     :data:`.blidf.SHARES` (the row's own two and those of the same vertex and light on the other
     side), and ``albedo`` (N, 3), the neighbourhood's albedo — the row's side's, or where that
-    side found no neighbourhood the other side's (:func:`neighbourhood_albedo`).
+    side found no neighbourhood the other side's (:func:`.visibility.neighbourhood_albedo`).
 
     A shard holds, light after light, one run of rows on side 0 then the same vertices on side
     1 (:func:`make_mesh_shards`); a run pairs with the run next to it.
@@ -293,13 +292,6 @@ def both_sides(shard) -> dict:
         other[a], other[b] = b, a
     return {"vbar": np.concatenate([vbar, vbar[other]], axis=1),
             "albedo": neighbourhood_albedo(albedo, albedo[other])}
-
-
-def neighbourhood_albedo(own: np.ndarray, other: np.ndarray) -> np.ndarray:
-    """φ_M (N, 3): the albedo of the neighbourhood a side sees (0 where it found none), or the
-    other side's where it found none — a crest sees nothing of its own, its light comes from
-    the valley behind it."""
-    return np.where(np.any(own > 0, axis=1, keepdims=True), own, other)
 
 
 def load_data(work: Path, meshes: Sequence[FoldMesh], config: TrainConfig) -> tuple[dict, dict]:

@@ -78,6 +78,17 @@ class Neighbours:
     def take(self, rows) -> "Neighbours":
         return Neighbours(self.points[rows], self.normals[rows], self.found[rows], self.albedo[rows])
 
+    def mean_albedo(self) -> np.ndarray:
+        """(V, 3): the mean albedo of each vertex's samples found (0 where none was) — φ_M of the side."""
+        return self.albedo.sum(axis=1) / np.maximum(self.found.sum(axis=1), 1)[:, None]
+
+
+def neighbourhood_albedo(own: np.ndarray, other: np.ndarray) -> np.ndarray:
+    """φ_M (N, 3): the albedo of the neighbourhood a side sees (:meth:`Neighbours.mean_albedo`,
+    0 where it found none), or the other side's where it found none — a crest sees nothing of
+    its own, its light comes from the valley behind it."""
+    return np.where(np.any(own > 0, axis=1, keepdims=True), own, other)
+
 
 def incident_faces(faces: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """CSR incidence of a mesh: (start (V+1,), face (3F,), slot (3F,)) — vertex i is corner
