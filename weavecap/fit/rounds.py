@@ -134,23 +134,6 @@ def best_named_weave(prepared, cells, start: wparams.Fabric, rig: LightRig, *, c
     return weaves[k] if scores[k] < own * (1.0 + tolerance) else None
 
 
-def nearest_named_weave(pattern: np.ndarray, *, besides: np.ndarray | None = None) -> np.ndarray | None:
-    """The named weave (:func:`weavecap.estimate.sampling.regular_weaves`) of ``pattern``'s
-    shape that differs from it in the fewest cells at the best cyclic shift, other than
-    ``besides`` (up to a shift); None if there is none. A fit that ends a cell or two off a
-    named weave was most likely that weave: the real twill W057 ended one cell off a twill 1/3,
-    while the named weave that scored best with its values was a basket 2/2 (8% worse fitted)."""
-    from ..estimate.sampling import regular_weaves
-    from ..estimate.weave_name import equal_up_to_shift, shift_agreement
-
-    weaves = [w for w in regular_weaves(pattern.shape) if not equal_up_to_shift(w, pattern)
-              and (besides is None or not equal_up_to_shift(w, besides))]
-    if not weaves:
-        return None
-    nearest = max(weaves, key=lambda w: shift_agreement(pattern, w)[0])
-    return np.roll(nearest, shift_agreement(pattern, nearest)[1], axis=(0, 1))  # at the fitted cells' phase
-
-
 def photo_votes(prepared, cells, fabric: wparams.Fabric, rig: LightRig, *, c: int) -> np.ndarray:
     """The model-free votes (:func:`weavecap.estimate.orientation.cell_votes`) of the photo's
     median repeat, registered on a render of ``fabric`` (so that its cells run from gap to gap
@@ -260,7 +243,7 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
     if explore_patterns:
         from ..estimate.orientation import vote_pattern
         from ..estimate.sampling import interlaces
-        from ..estimate.weave_name import equal_up_to_shift, weave_name
+        from ..estimate.weave_name import equal_up_to_shift
 
         named = best_named_weave(prepared, cells, start, rig, c=c)
         if named is not None:
@@ -315,18 +298,11 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
             best = last
         k += 1
     if explore_patterns and not spent() and not is_named_weave(best.result.fabric.pattern):
-        scored = best_named_weave(prepared, best.cells, best.result.fabric, best.rig, c=c, tolerance=math.inf)
-        tried = []
-        for named in [scored, nearest_named_weave(best.result.fabric.pattern, besides=scored)]:
-            if named is None or (tried and spent()):
-                continue
-            tried.append(_fit_round(prepared, best.cells, best.result.fabric.replace({"pattern": named}), best.rig,
-                                    per_round, c=c, fixed=fixed | {"pattern"}, seed=options.seed + k,
-                                    budget_s=budget(runs - 1)))
-            history += tried[-1].result.history
-        if tried:
-            last = min(tried, key=lambda fit: fit.result.loss)
-            named = last.result.fabric.pattern
+        named = best_named_weave(prepared, best.cells, best.result.fabric, best.rig, c=c, tolerance=math.inf)
+        if named is not None:
+            last = _fit_round(prepared, best.cells, best.result.fabric.replace({"pattern": named}), best.rig, per_round,
+                              c=c, fixed=fixed | {"pattern"}, seed=options.seed + k, budget_s=budget(runs - 1))
+            history += last.result.history
             # a named weave that explains the photo clearly better (by more than the tolerance)
             # is taken; within the tolerance either way it is likelier a priori — unless the
             # photo's own votes back the custom pattern better (the bench's random 4x4, a twill
@@ -338,8 +314,6 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
                 last.result.loss <= best.result.loss * (1.0 + tolerance)
                 and votes_named >= votes_custom - config.vote_margin)
             notes["named_weave"] = {"pattern": named.astype(int).tolist(), "loss": round(last.result.loss, 6),
-                                    "tried": {weave_name(fit.result.fabric.pattern): round(fit.result.loss, 6)
-                                              for fit in tried},
                                     "fitted_loss": round(best.result.loss, 6), "taken": taken,
                                     "votes_agree": [round(votes_named, 3), round(votes_custom, 3)]}
             if taken:
