@@ -247,6 +247,48 @@ def test_the_votes_only_break_near_ties_at_the_end_stage(monkeypatch, named_loss
     assert np.array_equal(out.result.fabric.pattern, named if taken else custom)
 
 
+def test_the_end_stage_also_fits_the_named_weave_the_fit_started_from(monkeypatch):
+    """The independent satin 8/5 warp-faced: started on a named weave (its votes' pattern, the
+    truth), the pattern sweeps drifted to a custom 8×8, and the named weave that scored best
+    with the custom fit's values was a basket 4/4 the votes did not back. The start's own
+    weave is fitted too with its pattern fixed, and the lower of the two goes to the end
+    stage's rule (here with a 4×4: started on a twill 3/1, drifted to a custom pattern)."""
+    from types import SimpleNamespace
+
+    from weavecap import pipeline
+    from weavecap.estimate.sampling import twill
+    from weavecap.fit import rounds
+    from weavecap.fit.joint import FitResult
+
+    custom = np.array([[0, 1, 1, 1], [0, 0, 0, 1], [1, 1, 0, 0], [0, 1, 1, 0]], dtype=np.uint8)
+    drifted = np.array([[1, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1], [1, 0, 0, 0]], dtype=np.uint8)
+    began, basket = twill(3, 1), np.kron(np.eye(2, dtype=np.uint8), np.ones((2, 2), dtype=np.uint8))
+    monkeypatch.setattr(rounds, "best_named_weave", lambda prepared, cells, start, rig, *, c, tolerance=0.0:
+                        basket if tolerance == np.inf else began)
+
+    def fake_round(prepared, cells, fabric, options, config, *, fixed, **kw):
+        p = fabric.pattern
+        if np.array_equal(p, began) and "pattern" not in fixed:  # the sweeps drift off the twill
+            fabric, loss = fabric.replace({"pattern": drifted}), 0.0189
+        else:
+            loss = 0.0150 if np.array_equal(p, began) else 0.0204 if np.array_equal(p, basket) else (
+                0.0189 if np.array_equal(p, drifted) else 0.03)
+        result = FitResult(fabric=fabric, loss=loss, history=[loss], iterations=1, seconds=0.0, stopped="iterations")
+        return rounds.RegisteredFit(result=result, target=None, cells=cells, blur_px=0.0, notes={"cell_shift": [0, 0]})
+
+    monkeypatch.setattr(rounds, "_fit_round", fake_round)
+    monkeypatch.setattr(rounds, "photo_votes", lambda prepared, cells, fabric, rig, c: np.zeros(fabric.shape))
+    start = params.load(FIXTURES / "plain.json").replace({"pattern": custom})
+    prepared = SimpleNamespace(regularized=SimpleNamespace(box=(0.0, 0.0, 10.0, 10.0)))
+    cells = CellGrid(rows=np.arange(5.0), cols=np.arange(5.0))
+    out = rounds.fit_registered(prepared, cells, start, pipeline.CaptureOptions(), c=8, fixed=frozenset(),
+                                explore_patterns=True)
+    note = out.notes["named_weave"]
+    assert out.notes["start"]["chosen"] == "named_weave"
+    assert note["tried"] == [0.0204, 0.015] and note["taken"]
+    assert np.array_equal(out.result.fabric.pattern, began)
+
+
 def _weave_canvas(pattern, c=16, gap=0.02, seed=0):
     """A repeat drawn by hand: each cell its top yarn's colour with stripes along the yarn and
     gap lines (``gap`` bright or dark) at the cell borders only where no yarn covers them."""

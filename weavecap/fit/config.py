@@ -108,6 +108,7 @@ class FitConfig:
     vote_lock: float = 0.5
     vote_margin: float = 0.05
     start_tie_tolerance: float = 0.15
+    start_tie_band: float = 0.10
 
     def with_(self, **changes) -> "FitConfig":
         return replace(self, **changes)

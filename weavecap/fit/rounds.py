@@ -220,8 +220,9 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
     whose losses the photo cannot tell apart (:func:`same_within_noise`, and within
     ``config.start_tie_tolerance`` of the lowest) are settled by the model-free votes. At the
     end, a fitted pattern that is no named weave is tried against the best named weave of its
-    shape, fitted with that pattern fixed; within ``config.named_weave_tolerance`` of the loss,
-    the named weave is kept. The candidate is always fitted: scored with the custom fit's
+    shape and against the chosen start's pattern when that was a named weave, each fitted with
+    its pattern fixed; the lower of them, within ``config.named_weave_tolerance`` of the loss,
+    is kept. The candidate is always fitted: scored with the custom fit's
     values, the real satin W108's named weave looked worse than its custom 5×5 and was not
     tried; fitted, its loss was 0.0056 against 0.0133 (18.7 → 22.5 dB). Returns the best
     round, with ``cells`` in the rectified photo's
@@ -274,7 +275,8 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
     if votes is not None and np.any(votes):  # starts the loss cannot tell apart: the votes decide
         tied = [name for name in firsts if name != chosen
                 and firsts[name].result.loss <= best.result.loss * (1.0 + config.start_tie_tolerance)
-                and same_within_noise(best, firsts[name], spp=config.spp)]
+                and (firsts[name].result.loss <= best.result.loss * (1.0 + config.start_tie_band)
+                     or same_within_noise(best, firsts[name], spp=config.spp))]
         backed = max([chosen] + tied, key=lambda name: firsts[name].agreement())
         chosen, best = backed, firsts[backed]
     notes = {"cell_shift": [best.notes["cell_shift"]]}
@@ -298,11 +300,25 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
             best = last
         k += 1
     if explore_patterns and not spent() and not is_named_weave(best.result.fabric.pattern):
-        named = best_named_weave(prepared, best.cells, best.result.fabric, best.rig, c=c, tolerance=math.inf)
-        if named is not None:
-            last = _fit_round(prepared, best.cells, best.result.fabric.replace({"pattern": named}), best.rig, per_round,
-                              c=c, fixed=fixed | {"pattern"}, seed=options.seed + k, budget_s=budget(runs - 1))
-            history += last.result.history
+        scored = best_named_weave(prepared, best.cells, best.result.fabric, best.rig, c=c, tolerance=math.inf)
+        # the named weave the chosen start had, when the pattern sweeps drifted off it (the
+        # independent satin 8/5 warp-faced: started on its votes' pattern, the truth, it ended a
+        # custom 8x8; the named weave that scored best with those values was a basket 4/4)
+        began = starts[chosen].pattern
+        candidates = [p for p in (scored, began if is_named_weave(began) else None) if p is not None]
+        if len(candidates) == 2 and equal_up_to_shift(*candidates):
+            candidates = candidates[:1]
+        tried = []
+        for named in candidates:
+            if tried and spent():
+                break
+            tried.append(_fit_round(prepared, best.cells, best.result.fabric.replace({"pattern": named}), best.rig,
+                                    per_round, c=c, fixed=fixed | {"pattern"}, seed=options.seed + k,
+                                    budget_s=budget(runs - 1)))
+            history += tried[-1].result.history
+        if tried:
+            last = min(tried, key=lambda fit: fit.result.loss)
+            named = last.result.fabric.pattern
             # a named weave that explains the photo clearly better (by more than the tolerance)
             # is taken; within the tolerance either way it is likelier a priori — unless the
             # photo's own votes back the custom pattern better (the bench's random 4x4, a twill
@@ -314,6 +330,7 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
                 last.result.loss <= best.result.loss * (1.0 + tolerance)
                 and votes_named >= votes_custom - config.vote_margin)
             notes["named_weave"] = {"pattern": named.astype(int).tolist(), "loss": round(last.result.loss, 6),
+                                    "tried": [round(fit.result.loss, 6) for fit in tried],
                                     "fitted_loss": round(best.result.loss, 6), "taken": taken,
                                     "votes_agree": [round(votes_named, 3), round(votes_custom, 3)]}
             if taken:
