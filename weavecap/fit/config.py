@@ -75,6 +75,10 @@ class FitConfig:
         higher a tie (the real plain W027: the votes took the dual, whose weft collapsed to a
         thin black yarn and the blue was lost); the ties it settled well were 6–11% apart
         (on the bench and the real photos), the harmful ones 18–53%
+    start_tie_band : starts within this fraction of the lowest loss tie even where the paired
+        test tells them apart: the model differs from a real photo by more than its noise, and a
+        wrong face can fit a little better (the independent twill 2/2 Z: its votes' pattern, the
+        truth, fitted 6.3% above the dual's twill 3/1)
     vote_margin : the named-weave end stage keeps a custom pattern whose agreement with the
         votes (:func:`weavecap.estimate.orientation.agreement`) is more than this above the
         named weave's
