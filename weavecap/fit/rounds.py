@@ -221,8 +221,9 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
     ``config.start_tie_tolerance`` of the lowest) are settled by the model-free votes. At the
     end, a fitted pattern that is no named weave is tried against the best named weave of its
     shape and against the chosen start's pattern when that was a named weave, each fitted with
-    its pattern fixed; the lower of them, within ``config.named_weave_tolerance`` of the loss,
-    is kept. The candidate is always fitted: scored with the custom fit's
+    its pattern fixed; one clearly lower (by more than ``config.named_weave_tolerance``) is
+    taken, else, of those within it, the one the votes back best, unless they back the custom
+    pattern better. The candidate is always fitted: scored with the custom fit's
     values, the real satin W108's named weave looked worse than its custom 5×5 and was not
     tried; fitted, its loss was 0.0056 against 0.0133 (18.7 → 22.5 dB). Returns the best
     round, with ``cells`` in the rectified photo's
@@ -317,7 +318,11 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
                                     budget_s=budget(runs - 1)))
             history += tried[-1].result.history
         if tried:
+            tolerance = config.named_weave_tolerance
             last = min(tried, key=lambda fit: fit.result.loss)
+            near = [fit for fit in tried if fit.result.loss <= best.result.loss * (1.0 + tolerance)]
+            if near and last.result.loss >= best.result.loss * (1.0 - tolerance):  # no clear winner: the
+                last = max(near, key=lambda fit: fit.agreement())  # votes pick among the near ones
             named = last.result.fabric.pattern
             # a named weave that explains the photo clearly better (by more than the tolerance)
             # is taken; within the tolerance either way it is likelier a priori — unless the
@@ -325,7 +330,6 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
             # 2/2 1.3% lower). The votes only break near-ties: the real twill W057's votes
             # (every cell "weft on top") had vetoed a twill 3/1 whose loss was half its custom 4x4's
             votes_named, votes_custom = last.agreement(), best.agreement()
-            tolerance = config.named_weave_tolerance
             taken = last.result.loss < best.result.loss * (1.0 - tolerance) or (
                 last.result.loss <= best.result.loss * (1.0 + tolerance)
                 and votes_named >= votes_custom - config.vote_margin)
