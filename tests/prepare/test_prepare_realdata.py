@@ -98,9 +98,11 @@ def _input_pitch(r: Prepared) -> tuple[float, float]:
     # a satin whose weft floats hide the weft boundaries; warps ~52 px. Its wefts are ~15.8 px
     # apart, not the sheet's 25 × 53 per cm (24.8 px): the photo's autocorrelation has its
     # interlacings at (-104, 16), (55, 46), (160, 30) px = (-2, 1), (1, 3), (3, 2) yarns for
-    # a 52.6 × 15.5 px grid, a cell of 7 yarns (a 7-end satin); the spectral lattice gives 7
-    # warps a unit and 15.8 px, and the weft projection's only period is 15.9 px
-    ("fabricnet_W127_satin.jpg", None, (50.0, 55.0), (15.0, 16.8)),
+    # a 52.6 × 15.5 px grid, a cell of 7 yarns (a 7-end satin of step 3); the spectral lattice
+    # gives 7 warps a unit and 15.8 px, and the weft projection's only period is 15.9 px (its
+    # spectrum has a peak on the fy axis at 15.7 px). The 7-warp repeat shows once in the
+    # photo's 12 warps, too few for a DMF: the lattice counts it (7×11 before)
+    ("fabricnet_W127_satin.jpg", (7, 7), (50.0, 55.0), (15.0, 16.8)),
     # a herringbone: pitch from the projections (the 2D spectrum has its yarn peaks at 8.4, 9.1 px)
     ("brodatz_D16_herringbone_000deg.tiff", None, (8.0, 8.8), (8.7, 9.5)),
 ])
