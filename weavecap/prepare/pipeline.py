@@ -28,7 +28,7 @@ from .config import PrepareConfig
 from .grid import (AxisGrid, Grid, axis_pitch, boundaries, cell_features, folded_strength, lattice_pitch, lattice_yarns,
                    projection, refine_pitch, refine_repeat, repeat_along, spectrum_peaks)
 from .illumination import flatten_illumination, luminance
-from .period import cell_repeat, superposed_dmf
+from .period import cell_repeat, complement_repeats, superposed_dmf
 from .rectify import Rectification, rectify
 from .regularize import Regularized, gaussian, regularize
 
@@ -403,10 +403,12 @@ def prepare_photo(rgb: np.ndarray, config: PrepareConfig = PrepareConfig(), *,
     origin = (float(yb[0]) if len(yb) else 0.0, float(xb[0]) if len(xb) else 0.0)
     cells = _cells(r_img, (px, py), origin, p_guess, config)
     crop = _central(smooth, config.period_max_px).astype(np.float64)
-    ns, dmfs, depths, sources = [], [], [], []
+    ns, dmfs, depths, sources, cell_ns, cell_dmfs = [], [], [], [], [], []
     for axis, pitch in ((0, py), (1, px)):  # axis 0: shifts along y → wefts
-        n, depth, _ = cell_repeat(cells, axis=axis, max_yarns=config.max_repeat_yarns, tol=config.cell_tol,
-                                  z=config.cell_z, min_depth=config.cell_min_depth)
+        n, depth, cd = cell_repeat(cells, axis=axis, max_yarns=config.max_repeat_yarns, tol=config.cell_tol,
+                                   z=config.cell_z, min_depth=config.cell_min_depth)
+        cell_ns.append(n)
+        cell_dmfs.append(cd)
         # what varies along the shift axis alone (yarn to yarn brightness, the yarn profile)
         # says nothing about the repeat; without it a satin's rare interlacings stand out
         dmf = superposed_dmf(crop - crop.mean(axis=1 - axis, keepdims=True), axis=axis)
@@ -419,6 +421,9 @@ def prepare_photo(rgb: np.ndarray, config: PrepareConfig = PrepareConfig(), *,
         dmfs.append(dmf)
         sources.append(source)
         depths.append(depth)
+    doubled = complement_repeats(cell_ns, cell_dmfs, tol=config.cell_tol)
+    ns = [m if m != c else n for n, c, m in zip(ns, cell_ns, doubled)]
+    checks.update(repeat_doubled=[m != c for c, m in zip(cell_ns, doubled)])
     found = [n is not None for n in ns]  # shown by a DMF: what confirms a pitch from the lattice
     lattice_n = _lattice_repeats(smooth, (py, px), (rh_, rw_), ns, config)
     reps = []
