@@ -47,7 +47,8 @@ class Grid:
     ----------
     x, y : :class:`AxisGrid` of the warps (along x) and of the wefts (along y).
     repeat_px : (height, width) of the minimum repeat in rectified px.
-    yarns : (wefts, warps) in the minimum repeat.
+    yarns : (wefts, warps) in the minimum repeat (a 2-yarn one that may be a grey 2/2 twill's
+        half is given as 4: :func:`~weavecap.prepare.period.complement_repeats`).
     repeat_found : (along y, along x): whether the repeat showed, as a dip of the DMF or, where
         the photo holds it only once, in the lattice of interlacings; False means all the
         photo's whole yarns along that axis are used.

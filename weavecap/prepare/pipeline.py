@@ -9,7 +9,10 @@ patches are repeats. Where the projections' pitch is several times the coarse pe
 chose the working resolution (a harmonic of thin yarns with sharp gaps), the photo is
 rectified again from that pitch. Where floats hide one family's yarn boundaries (a satin's
 flat projection along the floats), that axis's pitch comes from the lattice of spectral peaks
-(:func:`~weavecap.prepare.grid.lattice_pitch`) and must be confirmed by a repeat.
+(:func:`~weavecap.prepare.grid.lattice_pitch`) and must be confirmed by a repeat. Where the
+photo holds the repeat only once along an axis, the same lattice counts its yarns
+(:func:`_lattice_repeats`); a 2-yarn repeat that may be a grey 2/2 twill's half is widened to 4
+(:func:`~weavecap.prepare.period.complement_repeats`).
 
 A photo that is not a resolvable woven fabric is not fitted to noise: the result is then a
 :class:`Rejected` value with a reason a person can act on.
@@ -421,8 +424,9 @@ def prepare_photo(rgb: np.ndarray, config: PrepareConfig = PrepareConfig(), *,
         dmfs.append(dmf)
         sources.append(source)
         depths.append(depth)
+    # a grey 2/2 twill's complement looks alike: its 2-yarn cell repeat may be 4 (period.py)
     doubled = complement_repeats(cell_ns, cell_dmfs, tol=config.cell_tol)
-    ns = [m if m != c else n for n, c, m in zip(ns, cell_ns, doubled)]
+    ns = [m if c is not None else n for n, c, m in zip(ns, cell_ns, doubled)]
     checks.update(repeat_doubled=[m != c for c, m in zip(cell_ns, doubled)])
     found = [n is not None for n in ns]  # shown by a DMF: what confirms a pitch from the lattice
     lattice_n = _lattice_repeats(smooth, (py, px), (rh_, rw_), ns, config)
