@@ -17,7 +17,7 @@ from forward import forward_photo, measure_forward, minimum_repeat
 from weavecap.estimate.sampling import satin, twill
 from weavecap.photo import load_photo
 from weavecap.prepare import Prepared, prepare_photo
-from weavecap.prepare.period import cell_repeat
+from weavecap.prepare.period import cell_repeat, complement_repeats
 
 FIXTURES = Path(__file__).resolve().parents[2] / "fixtures"
 
@@ -53,8 +53,23 @@ def test_cell_repeat_of_a_herringbone_is_its_reversal_not_its_twill_step():
     edges = np.abs(p - np.roll(p, 1, axis=1)) + np.abs(p - np.roll(p, 1, axis=0))
     cells = np.stack([edges, np.roll(edges, 1, axis=1)], axis=2)
     cells = cells + np.random.default_rng(3).normal(0, 0.15, cells.shape)
-    found = [cell_repeat(cells, axis=a, max_yarns=48, tol=0.1, z=3.0, min_depth=0.15)[0] for a in (0, 1)]
+    runs = [cell_repeat(cells, axis=a, max_yarns=48, tol=0.1, z=3.0, min_depth=0.15) for a in (0, 1)]
+    found = [r[0] for r in runs]
     assert found == [2, 24]  # along y a shift of two wefts is the same look: the cells cannot tell
+    # ... but along x the look repeats over 2 warps only within a leg: the 2 wefts are a 2/2
+    # twill's complement, and the repeat is widened to the twill's 4 for the fit to decide
+    assert complement_repeats(found, [r[2] for r in runs], tol=0.1) == [4, 24]
+
+
+def test_complement_repeats_keep_a_plain_weave_and_a_rib():
+    """A plain weave repeats over 2 yarns along both axes, a 2 × 8 rib's shift by two warps
+    changes half its cells: neither has a leg that matches itself two yarns on."""
+    for p in (np.array([[1, 0], [0, 1]]), np.array([[1, 1, 1, 1, 0, 0, 0, 0], [0, 0, 0, 0, 1, 1, 1, 1]])):
+        cells = _cells(p, (24 // p.shape[0], 48 // p.shape[1]), np.random.default_rng(3))
+        runs = [cell_repeat(cells, axis=a, max_yarns=48, tol=0.1, z=3.0, min_depth=0.15) for a in (0, 1)]
+        found = [r[0] for r in runs]
+        assert found == list(p.shape)
+        assert complement_repeats(found, [r[2] for r in runs], tol=0.1) == list(p.shape)
 
 
 def test_cell_repeat_reports_no_repeat_in_noise():

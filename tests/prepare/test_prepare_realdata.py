@@ -98,11 +98,16 @@ def _input_pitch(r: Prepared) -> tuple[float, float]:
     # a satin whose weft floats hide the weft boundaries; warps ~52 px. Its wefts are ~15.8 px
     # apart, not the sheet's 25 × 53 per cm (24.8 px): the photo's autocorrelation has its
     # interlacings at (-104, 16), (55, 46), (160, 30) px = (-2, 1), (1, 3), (3, 2) yarns for
-    # a 52.6 × 15.5 px grid, a cell of 7 yarns (a 7-end satin); the spectral lattice gives 7
-    # warps a unit and 15.8 px, and the weft projection's only period is 15.9 px
-    ("fabricnet_W127_satin.jpg", None, (50.0, 55.0), (15.0, 16.8)),
-    # a herringbone: pitch from the projections (the 2D spectrum has its yarn peaks at 8.4, 9.1 px)
-    ("brodatz_D16_herringbone_000deg.tiff", None, (8.0, 8.8), (8.7, 9.5)),
+    # a 52.6 × 15.5 px grid, a cell of 7 yarns (a 7-end satin of step 3); the spectral lattice
+    # gives 7 warps a unit and 15.8 px, and the weft projection's only period is 15.9 px (its
+    # spectrum has a peak on the fy axis at 15.7 px). The 7-warp repeat shows once in the
+    # photo's 12 warps, too few for a DMF: the lattice counts it (7×11 before)
+    ("fabricnet_W127_satin.jpg", (7, 7), (50.0, 55.0), (15.0, 16.8)),
+    # a herringbone: pitch from the projections (the 2D spectrum has its yarn peaks at 8.4, 9.1 px);
+    # the diagonal reverses every 58-67 px (7-8 warps), the look repeats every 126 px = 15
+    # warps; its cells repeat over 2 wefts (a 2/2 twill's complement looks alike in this grey
+    # photo) and over 2 warps within a leg: the 2/2 base's 4 wefts (2×15 before)
+    ("brodatz_D16_herringbone_000deg.tiff", (4, 15), (8.0, 8.8), (8.7, 9.5)),
 ])
 def test_twill_and_satin_grids_checked_by_eye(name, yarns, warp_px, weft_px):
     r = prepare_photo(load_photo(_easy(name)).rgb)
@@ -112,3 +117,14 @@ def test_twill_and_satin_grids_checked_by_eye(name, yarns, warp_px, weft_px):
     assert warp_px[0] <= warp <= warp_px[1] and weft_px[0] <= weft <= weft_px[1], (warp, weft)
     if yarns is not None:
         assert tuple(r.grid.yarns) == yarns
+
+
+@pytest.mark.parametrize("name", ["brodatz_D16_herringbone_030deg.tiff", "brodatz_D16_herringbone_120deg.tiff"])
+def test_turned_herringbone_keeps_its_repeat(name):
+    """The same Brodatz D16 cloth digitised turned by 30° and 120°: the same 4 × 15 repeat (the
+    warps and wefts swap at 120°: the turn is taken to within ±45°), 8.4 × 9.1 px yarns."""
+    r = prepare_photo(load_photo(SHARED / "realdata" / "images" / "hard" / name).rgb)
+    assert isinstance(r, Prepared), getattr(r, "reason", "")
+    assert sorted(r.grid.yarns) == [4, 15]
+    fine, coarse = sorted(_input_pitch(r))
+    assert 8.0 <= fine <= 8.8 and 8.7 <= coarse <= 9.5, (fine, coarse)

@@ -15,10 +15,10 @@ from __future__ import annotations
 import importlib
 
 import numpy as np
-from synthetic import render
+from synthetic import render, satin
 
 from weavecap.prepare import PrepareConfig
-from weavecap.prepare.grid import lattice_pitch, spectrum_peaks
+from weavecap.prepare.grid import lattice_pitch, lattice_yarns, spectrum_peaks
 from weavecap.prepare.illumination import luminance
 
 rectify_mod = importlib.import_module("weavecap.prepare.rectify")
@@ -169,3 +169,32 @@ def test_lattice_pitch_finds_sub_bin_units():
            for a in range(1, 6) for b in range(-5, 6) if (a - b) % n == 0 and b != 0]
     p, share = lattice_pitch(np.array(pts), known_pitch=py, axis=0, tol=0.75 / 147)
     assert p is not None and abs(p / px - 1) < 0.01, p
+
+
+def test_lattice_yarns_of_an_ideal_satin_and_twill():
+    """The fewest yarns whose lines m·k/n hold the interlacings' peaks are the repeat, along
+    both axes (a 7-end satin of step 3, a 2/1 twill)."""
+    for n, move in ((7, 3), (3, 1)):
+        px, py = 30.0, 10.0
+        pts = [(a / (n * px), b / (n * py), 1.0) for a in range(0, 15) for b in range(-14, 15)
+               if (a - move * b) % n == 0 and (a, b) != (0, 0) and (a > 0 or b > 0)]
+        peaks = np.array(pts)
+        assert lattice_yarns(peaks, pitch=px, axis=0, tol=1e-4) == n
+        assert lattice_yarns(peaks, pitch=py, axis=1, tol=1e-4) == n
+
+
+def test_lattice_yarns_see_a_repeat_the_photo_holds_once():
+    """A 7-end satin of wide warps (36 px) in a 384 px wide photo: 10.7 warps, one repeat and a
+    half, too few for a DMF (it compares shifts up to half the photo); the spectral lattice of
+    the interlacings still counts 7 warps (and 7 wefts), as in the real FabricNET W127."""
+    img, _ = render(satin(7, 3), size=(320, 384), pitch_px=(36.0, 12.0), noise=0.01, seed=1)
+    grey = luminance(img)
+    peaks = spectrum_peaks(grey, max_side=320)
+    assert lattice_yarns(peaks, pitch=36.0, axis=0, tol=0.75 / 320) == 7
+    assert lattice_yarns(peaks, pitch=12.0, axis=1, tol=0.75 / 320) == 7
+
+
+def test_lattice_yarns_need_a_lattice():
+    rng = np.random.default_rng(2)
+    peaks = np.column_stack([rng.uniform(0, 0.3, 12), rng.uniform(-0.3, 0.3, 12), rng.uniform(0.1, 1, 12)])
+    assert lattice_yarns(peaks, pitch=9.0, axis=0, tol=0.002) is None

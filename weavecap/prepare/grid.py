@@ -47,9 +47,11 @@ class Grid:
     ----------
     x, y : :class:`AxisGrid` of the warps (along x) and of the wefts (along y).
     repeat_px : (height, width) of the minimum repeat in rectified px.
-    yarns : (wefts, warps) in the minimum repeat.
-    repeat_found : (along y, along x): whether the repeat showed as a dip of the DMF; False
-        means the photo holds a single repeat along that axis (all its whole yarns are used).
+    yarns : (wefts, warps) in the minimum repeat (a 2-yarn one that may be a grey 2/2 twill's
+        half is given as 4: :func:`~weavecap.prepare.period.complement_repeats`).
+    repeat_found : (along y, along x): whether the repeat showed, as a dip of the DMF or, where
+        the photo holds it only once, in the lattice of interlacings; False means all the
+        photo's whole yarns along that axis are used.
     origin_px : (y, x) of the top-left corner of one repeat (a pair of yarn boundaries).
     """
 
@@ -357,6 +359,44 @@ def _lattice_share(values: np.ndarray, weights: np.ndarray, unit: float, tol: fl
     return float(weights[off <= t].sum() / max(float(weights.sum()), 1e-300))
 
 
+def _off_axis(peaks: np.ndarray, tol: float) -> np.ndarray:
+    """The peaks off both axes: those on an axis (the yarn frequencies, their harmonics,
+    stripes) lie on every coarser lattice too; only the interlacings tell the repeat."""
+    return peaks[(np.abs(peaks[:, 0]) > tol) & (np.abs(peaks[:, 1]) > tol)]
+
+
+def lattice_yarns(peaks: np.ndarray, *, pitch: float, axis: int, max_yarns: int = 12, tol: float,
+                  min_share: float = 0.85) -> int | None:
+    """The repeat along one axis, in yarns, that the lattice of interlacings implies (§4.3).
+
+    The weave repeats over n yarns along x exactly when its spectrum lies on the lines
+    fx = m·k/n (k = 1/pitch, the yarn frequency): a translation by n·pitch then changes no
+    Fourier component. The off-axis peaks are the interlacings' reciprocal lattice, whose
+    basis vectors are the short steps between neighbouring interlacings (a satin's (1, s)),
+    so the spectrum resolves these lines as soon as the crop spans about one repeat, where
+    a DMF needs two to dip (:func:`~weavecap.prepare.period.cell_repeat` compares shifts
+    up to half the cells).
+
+    Parameters
+    ----------
+    peaks : (K, 3) from :func:`spectrum_peaks` (rectified image).
+    pitch : yarn pitch (px) along ``axis``.
+    axis : 0 for x (warps), 1 for y (wefts).
+    tol : largest distance (cycles/px) of a peak from a lattice line (the spectral resolution).
+    min_share : power share of the off-axis peaks that must lie on the lines.
+
+    Returns
+    -------
+    The fewest yarns n ≤ ``max_yarns`` whose lines hold ``min_share`` of the off-axis peaks'
+    power, or None (fewer than three off-axis peaks, or no such n).
+    """
+    peaks = _off_axis(peaks, tol)
+    if len(peaks) < 3:
+        return None
+    w, v, k = peaks[:, 2], np.abs(peaks[:, axis]), 1.0 / pitch
+    return next((m for m in range(1, max_yarns + 1) if _lattice_share(v, w, k / m, tol) >= min_share), None)
+
+
 def lattice_pitch(peaks: np.ndarray, *, known_pitch: float, axis: int, max_yarns: int = 12,
                   tol: float, min_share: float = 0.85) -> tuple[float | None, float]:
     """The yarn pitch along an axis whose yarn boundaries do not show, from the weave's lattice.
@@ -384,19 +424,14 @@ def lattice_pitch(peaks: np.ndarray, *, known_pitch: float, axis: int, max_yarns
     -------
     (pitch_px or None, share): the power share of the off-axis peaks on the lattice found.
     """
-    # peaks on an axis (the yarn frequencies, their harmonics, stripes) lie on every coarser
-    # lattice too: only the interlacings, off both axes, tell the repeat
-    off_axis = (np.abs(peaks[:, 0]) > tol) & (np.abs(peaks[:, 1]) > tol)
-    peaks = peaks[off_axis]
-    if len(peaks) < 3:
+    n = lattice_yarns(peaks, pitch=known_pitch, axis=1 - axis, max_yarns=max_yarns, tol=tol, min_share=min_share)
+    if n is None or n < 2:
         return None, 0.0
+    peaks = _off_axis(peaks, tol)
     w = peaks[:, 2]
     known = np.abs(peaks[:, 1 - axis])  # along the known axis: fx when y is sought
     sought = np.abs(peaks[:, axis])
     k = 1.0 / known_pitch
-    n = next((m for m in range(1, max_yarns + 1) if _lattice_share(known, w, k / m, tol) >= min_share), None)
-    if n is None or n < 2:
-        return None, 0.0
     units = sorted({float(v / m) for v in sought[sought > 2 * tol] for m in range(1, max_yarns + 1)}, reverse=True)
     for u in units:
         if u <= 2 * tol:

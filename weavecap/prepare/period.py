@@ -165,8 +165,47 @@ def cell_repeat(cells: np.ndarray, *, axis: int, max_yarns: int, tol: float, z: 
     depth = 1.0 - best / max(top, 1e-12)
     if depth < min_depth or top - best < z * (se[k_best] + se[k_top]):
         return None, depth, d
-    slack = tol * (top - best)
-    low = [k for k in range(2, len(d)) if d[k] <= best + slack]
+    low, slack = _low_shifts(d, tol)
     c = multiple_contrast(d)
     n = next(k for k in low if c[k] >= max(c[low]) - slack)
     return n, depth, d
+
+
+def _low_shifts(dmf: np.ndarray, tol: float) -> tuple[list[int], float]:
+    """The shifts ≥ 2 whose DMF lies within ``tol·(d⁺ - d*)`` of the lowest d* (d⁺ the
+    highest, over shifts ≥ 1), and that margin (:func:`cell_repeat`)."""
+    d = np.asarray(dmf, np.float64)
+    best, top = float(d[2:].min()), float(d[1:].max())
+    slack = tol * (top - best)
+    return [k for k in range(2, len(d)) if d[k] <= best + slack], slack
+
+
+def complement_repeats(yarns: list[int | None], dmfs: list[np.ndarray], *, tol: float) -> list[int | None]:
+    """The repeats per axis (y, x) with a 2-yarn repeat doubled where the look is that of a
+    2/2 twill whose warp and weft floats look alike (§4.3).
+
+    A 2/2 twill shifted by two yarns along either axis is its complement (every warp float
+    becomes a weft float); where the photo does not tell the two floats apart — one grey
+    yarn, floats shorter than the blur resolves — its cells repeat over 2 yarns along both
+    axes, the look of a plain weave. A plain weave also repeats over 2 along both axes; a
+    herringbone (Brodatz D16) or a broken twill does only within a leg: its reversals undo
+    the 2-yarn match a few yarns on, so the DMF of that axis dips at 2 as deep as at its
+    repeat, which is longer (:func:`multiple_contrast` chose it). A 2-yarn repeat across
+    such an axis is then ambiguous between a weave of 2 yarns and a 2/2 twill base of 4,
+    and it is doubled: a 4-yarn repeat holds a 2-yarn one, so the fit, whose model tells a
+    warp float from a weft float by its shape, can still find either.
+
+    Parameters
+    ----------
+    yarns : the cells' repeat per axis (None: none shown).
+    dmfs : the cell DMF of each axis (:func:`cell_repeat`'s third value).
+    tol : the margin of :func:`cell_repeat` (``cell_tol``).
+    """
+    out = list(yarns)
+    for i in (0, 1):
+        j = 1 - i
+        n_other, d_other = yarns[j], np.asarray(dmfs[j], np.float64)
+        if yarns[i] == 2 and n_other is not None and n_other > 2 and len(d_other) > 2 \
+                and 2 in _low_shifts(d_other, tol)[0]:
+            out[i] = 4
+    return out

@@ -9,7 +9,10 @@ patches are repeats. Where the projections' pitch is several times the coarse pe
 chose the working resolution (a harmonic of thin yarns with sharp gaps), the photo is
 rectified again from that pitch. Where floats hide one family's yarn boundaries (a satin's
 flat projection along the floats), that axis's pitch comes from the lattice of spectral peaks
-(:func:`~weavecap.prepare.grid.lattice_pitch`) and must be confirmed by a repeat.
+(:func:`~weavecap.prepare.grid.lattice_pitch`) and must be confirmed by a repeat. Where the
+photo holds the repeat only once along an axis, the same lattice counts its yarns
+(:func:`_lattice_repeats`); a 2-yarn repeat that may be a grey 2/2 twill's half is widened to 4
+(:func:`~weavecap.prepare.period.complement_repeats`).
 
 A photo that is not a resolvable woven fabric is not fitted to noise: the result is then a
 :class:`Rejected` value with a reason a person can act on.
@@ -25,10 +28,10 @@ import cv2
 import numpy as np
 
 from .config import PrepareConfig
-from .grid import (AxisGrid, Grid, axis_pitch, boundaries, cell_features, folded_strength, lattice_pitch, projection,
-                   refine_pitch, refine_repeat, repeat_along, spectrum_peaks)
+from .grid import (AxisGrid, Grid, axis_pitch, boundaries, cell_features, folded_strength, lattice_pitch, lattice_yarns,
+                   projection, refine_pitch, refine_repeat, repeat_along, spectrum_peaks)
 from .illumination import flatten_illumination, luminance
-from .period import cell_repeat, superposed_dmf
+from .period import cell_repeat, complement_repeats, superposed_dmf
 from .rectify import Rectification, rectify
 from .regularize import Regularized, gaussian, regularize
 
@@ -176,12 +179,55 @@ def _lattice_pitches(smooth: np.ndarray, pitches: list, strengths: list,
     weak = [s < config.min_grid_strength for s in strengths]
     if weak[0] == weak[1] or max(strengths) < config.lattice_min_known_strength:
         return [None, None]
-    peaks = spectrum_peaks(smooth, max_side=config.lattice_max_px)
-    n = min(smooth.shape[0], smooth.shape[1], config.lattice_max_px)
+    peaks, tol = _spectral_lattice(smooth, config)
     out: list[float | None] = [None, None]
     i = 0 if weak[0] else 1
     out[i], _ = lattice_pitch(peaks, known_pitch=pitches[1 - i], axis=i, max_yarns=config.lattice_max_yarns,
-                              tol=0.75 / n, min_share=config.lattice_min_share)
+                              tol=tol, min_share=config.lattice_min_share)
+    return out
+
+
+def _spectral_lattice(smooth: np.ndarray, config: PrepareConfig) -> tuple[np.ndarray, float]:
+    """The spectral peaks of the smoothed rectified image's centre crop (at most
+    ``lattice_max_px``) and the distance (cycles/px) within which a peak lies on a lattice line
+    (:func:`~weavecap.prepare.grid.spectrum_peaks`)."""
+    n = min(smooth.shape[0], smooth.shape[1], config.lattice_max_px)
+    return spectrum_peaks(smooth, max_side=config.lattice_max_px), 0.75 / n
+
+
+def _lattice_repeats(smooth: np.ndarray, pitches: tuple[float, float], lengths: tuple[int, int],
+                     dmf_yarns: list[int | None], config: PrepareConfig) -> list[int | None]:
+    """Per axis (y: wefts, then x: warps), the repeat in yarns that the lattice of interlacings
+    gives where the DMFs show none because the photo cannot hold it twice; else None (§4.3).
+
+    A DMF dips only at a shift the photo shows twice; the spectral lattice of the interlacings
+    (:func:`~weavecap.prepare.grid.lattice_yarns`) needs only about one repeat, its basis being
+    the short steps between neighbouring interlacings. A microscope close-up of a 7-end satin
+    of wide warps holds 12 warps: a repeat that shows once. The lattice is believed only where
+    it gives, along the other axis, the repeat that the DMF found there (the same lattice
+    describes both axes of one weave), and only for a repeat longer than half the photo (a
+    shorter one the DMF would have seen).
+
+    Parameters
+    ----------
+    smooth : the smoothed grey rectified image (:func:`_projections`).
+    pitches : (weft pitch along y, warp pitch along x), rectified px; lengths : (height, width).
+    dmf_yarns : the DMFs' repeat per axis (None: none shown).
+    """
+    if all(n is None for n in dmf_yarns) or all(n is not None for n in dmf_yarns):
+        return [None, None]
+    peaks, tol = _spectral_lattice(smooth, config)
+    out: list[int | None] = [None, None]
+    for i in (0, 1):  # i = 0: along y (spectral axis 1), i = 1: along x (spectral axis 0)
+        j = 1 - i
+        if dmf_yarns[i] is not None:
+            continue
+        kw = dict(max_yarns=config.lattice_max_yarns, tol=tol, min_share=config.lattice_min_share)
+        # the spectrum's axis 0 is x: this axis is spectral axis 1 - i, the other one i
+        other = lattice_yarns(peaks, pitch=pitches[j], axis=i, **kw)
+        n = lattice_yarns(peaks, pitch=pitches[i], axis=1 - i, **kw)
+        if other == dmf_yarns[j] and n is not None and n >= 2 and n * pitches[i] > lengths[i] / 2:
+            out[i] = n
     return out
 
 
@@ -360,10 +406,12 @@ def prepare_photo(rgb: np.ndarray, config: PrepareConfig = PrepareConfig(), *,
     origin = (float(yb[0]) if len(yb) else 0.0, float(xb[0]) if len(xb) else 0.0)
     cells = _cells(r_img, (px, py), origin, p_guess, config)
     crop = _central(smooth, config.period_max_px).astype(np.float64)
-    reps, found, depths, sources = [], [], [], []
-    for axis, pitch, length in ((0, py, rh_), (1, px, rw_)):  # axis 0: shifts along y → wefts
-        n, depth, _ = cell_repeat(cells, axis=axis, max_yarns=config.max_repeat_yarns, tol=config.cell_tol,
-                                  z=config.cell_z, min_depth=config.cell_min_depth)
+    ns, dmfs, depths, sources, cell_ns, cell_dmfs = [], [], [], [], [], []
+    for axis, pitch in ((0, py), (1, px)):  # axis 0: shifts along y → wefts
+        n, depth, cd = cell_repeat(cells, axis=axis, max_yarns=config.max_repeat_yarns, tol=config.cell_tol,
+                                   z=config.cell_z, min_depth=config.cell_min_depth)
+        cell_ns.append(n)
+        cell_dmfs.append(cd)
         # what varies along the shift axis alone (yarn to yarn brightness, the yarn profile)
         # says nothing about the repeat; without it a satin's rare interlacings stand out
         dmf = superposed_dmf(crop - crop.mean(axis=1 - axis, keepdims=True), axis=axis)
@@ -372,15 +420,27 @@ def prepare_photo(rgb: np.ndarray, config: PrepareConfig = PrepareConfig(), *,
             n, depth = repeat_along(dmf, pitch, max_yarns=config.max_repeat_yarns, rel_tol=config.period_rel_tol,
                                     abs_tol=config.period_abs_tol, min_depth=config.period_min_depth)
             source = "pixels" if n is not None else "none"
+        ns.append(n)
+        dmfs.append(dmf)
         sources.append(source)
         depths.append(depth)
+    # a grey 2/2 twill's complement looks alike: its 2-yarn cell repeat may be 4 (period.py)
+    doubled = complement_repeats(cell_ns, cell_dmfs, tol=config.cell_tol)
+    ns = [m if c is not None else n for n, c, m in zip(ns, cell_ns, doubled)]
+    checks.update(repeat_doubled=[m != c for c, m in zip(cell_ns, doubled)])
+    found = [n is not None for n in ns]  # shown by a DMF: what confirms a pitch from the lattice
+    lattice_n = _lattice_repeats(smooth, (py, px), (rh_, rw_), ns, config)
+    reps = []
+    for i, (pitch, length) in enumerate(((py, rh_), (px, rw_))):
+        n = ns[i] if ns[i] is not None else lattice_n[i]
+        if lattice_n[i] is not None:
+            sources[i] = "lattice"
         if n is None:  # a single repeat along this axis: all whole yarns of the photo
             n = int(np.floor(length / pitch))
-            found.append(False)
             reps.append((n, n * pitch))
         else:
-            found.append(True)
-            reps.append((n, refine_repeat(dmf, pitch, n)))
+            reps.append((n, refine_repeat(dmfs[i], pitch, n)))
+    shown = [f or n is not None for f, n in zip(found, lattice_n)]
     checks.update(repeat_from=sources)
     checks.update(repeat_depth=depths)
     (ny, rep_h), (nx, rep_w) = reps
@@ -393,9 +453,9 @@ def prepare_photo(rgb: np.ndarray, config: PrepareConfig = PrepareConfig(), *,
                         "look like a woven fabric, or its yarns are hidden", "no_grid", checks)
     # the pitch is best known from the repeat, measured over all its multiples
     # (unless the two disagree: then the projection's pitch is kept)
-    if found[0] and abs(rep_h / ny / py - 1) < 0.03:
+    if shown[0] and abs(rep_h / ny / py - 1) < 0.03:
         py = rep_h / ny
-    if found[1] and abs(rep_w / nx / px - 1) < 0.03:
+    if shown[1] and abs(rep_w / nx / px - 1) < 0.03:
         px = rep_w / nx
     timings["grid"] = time.perf_counter() - t
 
@@ -403,7 +463,7 @@ def prepare_photo(rgb: np.ndarray, config: PrepareConfig = PrepareConfig(), *,
     say("regularizing")
     t = time.perf_counter()
     reg = regularize(r_img, pitch_px=(px, py),
-                     repeat_px=(rep_h if found[0] else None, rep_w if found[1] else None),
+                     repeat_px=(rep_h if shown[0] else None, rep_w if shown[1] else None),
                      origin_px=origin, config=config)
     timings["regularize"] = time.perf_counter() - t
     # boundaries from the regularized image's projections, over its box (the paper's §4.4)
@@ -417,6 +477,6 @@ def prepare_photo(rgb: np.ndarray, config: PrepareConfig = PrepareConfig(), *,
         xb, yb = _dedupe(np.sort(xb), px / 3), _dedupe(np.sort(yb), py / 3)
     origin = (float(y0), float(x0)) if reg.method == "kpca" else origin
     grid = Grid(x=AxisGrid(px, strengths[0], contrasts[0], xb), y=AxisGrid(py, strengths[1], contrasts[1], yb),
-                repeat_px=(ny * py, nx * px), yarns=(ny, nx), repeat_found=(found[0], found[1]), origin_px=origin)
+                repeat_px=(ny * py, nx * px), yarns=(ny, nx), repeat_found=(shown[0], shown[1]), origin_px=origin)
     timings["total"] = time.perf_counter() - t_all
     return Prepared(rect, reg, grid, checks, timings)

@@ -76,9 +76,10 @@ def test_direct_plus_fold_is_closer_to_localpt_than_direct_alone(fabric):
     without = bench.rmse(direct, reference, mask)
     ours = bench.rmse(with_fold, reference, mask)
     mean_ratio = (with_fold - direct)[mask].mean() / local[mask].mean()
-    assert ours < 0.62 * without, (ours, without)  # measured 0.54 (the 256-spp reference's own noise included)
-    # the fold light's mean over LocalPT's: measured 0.85 (0.5 with the term on valleys only and two shares)
-    assert 0.75 < mean_ratio < 1.1, mean_ratio
+    assert ours < 0.58 * without, (ours, without)  # measured 0.50 (the 256-spp reference's own noise included)
+    # the fold light's mean over LocalPT's: measured 1.14 (0.85 with the view samples' N about the vertex, not
+    # about where each ray leaves; 0.5 with the term on valleys only and two shares)
+    assert 0.95 < mean_ratio < 1.3, mean_ratio
 
 
 def test_render_command_reports_the_fold_term(tmp_path):

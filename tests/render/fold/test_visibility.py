@@ -8,7 +8,7 @@ from weavecap.render.fold import visibility as Vis
 from weavecap.render.fold.descriptors import compute_descriptors
 from weavecap.render.fold.localpt import mi
 
-from .shapes import diffuse, heightfield, mesh_shape
+from .shapes import diffuse, grid_faces, heightfield, mesh_shape
 from .test_localpt import groove, wall_view_factor
 
 
@@ -83,3 +83,21 @@ def test_asg_fit_recovers_a_lobe():
     fit = Vis.fit_asg(direct, target, normal, dirs, lobes=2, steps=150)
     again = np.stack([Vis.asg_value(fit.astype(float), normal, np.broadcast_to(d, (20, 3))) for d in dirs], axis=1)
     assert np.sqrt(np.mean((again - target) ** 2)) < 0.01 * target.max()  # measured 0.0003
+
+
+def test_the_neighbourhood_does_not_depend_on_how_long_the_faces_are():
+    # a 90° groove z = |x| extruded along y, once with rows 2 apart (faces far longer than r)
+    # and once with rows 0.1 apart: N is the sphere about where each ray leaves (LocalPT's
+    # about its first hit), so a wall vertex sees the same lit share of it on both
+    shares = []
+    for rows in (3, 41):
+        x, y = np.meshgrid(np.linspace(-1, 1, 41), np.linspace(-2, 2, rows), indexing="ij")
+        v = np.stack([x, y, np.abs(x)], -1).reshape(-1, 3)
+        f = grid_faces(41, rows)
+        desc = compute_descriptors(v, f, radius=0.6)
+        scene, garment = scene_with(v, f, desc)
+        at = np.array([np.argmin(np.linalg.norm(v[:, :2] - [-0.3, 0.0], axis=1))])
+        nb = Vis.neighbourhood_samples(scene, garment, v, f, desc, 0, 20000, seed=1, at=at)
+        shares.append(Vis.lit_share(scene, nb, np.array([0.0, 0.0, 1.0]), desc.radius)[0, 0])
+    assert shares[1] > 0.05
+    np.testing.assert_allclose(shares[0], shares[1], rtol=0.08)

@@ -167,11 +167,12 @@ def _softplus(x):
 
 
 def _mlp(arrays: dict, prefix: str, x: np.ndarray) -> np.ndarray:
+    """The network ``prefix`` ("i" or "d") on rows ``x`` (N, inputs), in the dtype of ``x``."""
     k = 0
     while f"{prefix}.w{k + 1}" in arrays:
-        x = _silu(x @ arrays[f"{prefix}.w{k}"] + arrays[f"{prefix}.b{k}"])
+        x = _silu(x @ arrays[f"{prefix}.w{k}"].astype(x.dtype) + arrays[f"{prefix}.b{k}"].astype(x.dtype))
         k += 1
-    return x @ arrays[f"{prefix}.w{k}"] + arrays[f"{prefix}.b{k}"]
+    return x @ arrays[f"{prefix}.w{k}"].astype(x.dtype) + arrays[f"{prefix}.b{k}"].astype(x.dtype)
 
 
 @dataclass(frozen=True)
@@ -204,13 +205,13 @@ class BLIDF:
         channel: ρ_N · softplus(MLP_I) · max(0, 1 + Σ a_lm Y_lm(ω_i)).
         The albedo of x_o itself (its texture, at render time) multiplies it.
         """
-        x = self.standardise(np.asarray(features, np.float64))
+        x = self.standardise(np.asarray(features, np.float64)).astype(np.float32)  # float32: 2x faster, ample
         albedo = np.asarray(albedo, np.float64)
+        n, channels = albedo.shape
         direction = np.maximum(1.0 + np.einsum("nk,nk->n", sh_basis(light_local), _mlp(self.arrays, "d", x)), 0.0)
-        out = np.empty(albedo.shape + (len(SHARES),))
-        for c in range(albedo.shape[1]):
-            out[:, c] = albedo[:, c, None] * _softplus(_mlp(self.arrays, "i", np.column_stack([x, albedo[:, c]])))
-        return out * direction[:, None, None]
+        rows = np.concatenate([np.column_stack([x, albedo[:, c].astype(np.float32)]) for c in range(channels)])
+        intensity = _softplus(_mlp(self.arrays, "i", rows).astype(np.float64)).reshape(channels, n, len(SHARES))
+        return albedo[..., None] * intensity.transpose(1, 0, 2) * direction[:, None, None]
 
     def to_json(self) -> dict:
         return {"format": FORMAT, "record": self.record,

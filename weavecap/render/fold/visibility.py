@@ -66,7 +66,7 @@ class Neighbours:
     Attributes
     ----------
     points, normals : (V, K, 3) float64 — hits of the rays, normals turned towards the ray
-    found : (V, K) bool — the ray met the garment within r of the vertex
+    found : (V, K) bool — the ray met the garment within r of the point it left
     albedo : (V, K, 3) float64 — the garment's albedo there (0 where not found)
     """
 
@@ -135,12 +135,24 @@ def hat_points(vertices: np.ndarray, faces: np.ndarray, normals: np.ndarray, at:
     return points, nrm, np.where(lonely[:, None], -1, fi)
 
 
-def cosine_directions(normal: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    """One cosine-distributed unit direction about each normal (..., 3)."""
+def stratified_unit_square(rows: int, count: int, rng: np.random.Generator) -> np.ndarray:
+    """``count`` points of [0, 1)² per row (rows, count, 2), stratified: one scrambled Sobol'
+    set (the first ``count`` of the next power of two), shifted by a random offset per row (a Cranley–Patterson rotation, so each row's
+    points are uniformly distributed and the rows independent) — an average over them has far
+    less variance than over as many independent points."""
+    from scipy.stats import qmc
+
+    base = qmc.Sobol(d=2, scramble=True, seed=rng).random_base2(max(0, int(np.ceil(np.log2(max(count, 1))))))[:count]
+    return np.mod(base[None] + rng.random((rows, 1, 2)), 1.0)
+
+
+def cosine_directions(normal: np.ndarray, rng: np.random.Generator, u: np.ndarray | None = None) -> np.ndarray:
+    """One cosine-distributed unit direction about each normal (..., 3), from the points ``u``
+    of the unit square (..., 2; independent ones if not given)."""
     shape = normal.shape
     n = normal.reshape(-1, 3)
     t, b = tangent_frame(n)
-    u = rng.random((len(n), 2))
+    u = rng.random((len(n), 2)) if u is None else np.asarray(u, np.float64).reshape(-1, 2)
     r, phi = np.sqrt(u[:, 0]), 2 * np.pi * u[:, 1]
     d = (r * np.cos(phi))[:, None] * t + (r * np.sin(phi))[:, None] * b + np.sqrt(1 - u[:, :1]) * n
     return (d / np.linalg.norm(d, axis=1, keepdims=True)).reshape(shape)
@@ -166,8 +178,9 @@ def neighbourhood_samples(scene: "mi.Scene", shape: "mi.Shape", vertices: np.nda
     """``count`` points per vertex of the neighbourhood its surroundings see, on ``side``.
 
     Each ray leaves a point of the vertex's faces (:func:`hat_points`) in a cosine-distributed
-    direction about the side's normal there; where it meets the garment within r of the vertex
-    (not the face it left) it found a neighbour. This samples N(x_o) as the light it sends
+    direction about the side's normal there; where it meets the garment within r of the point
+    it left (as LocalPT's N is the sphere about its first hit) and not on the face it left, it
+    found a neighbour. This samples N(x_o) as the light it sends
     towards x_o's surroundings is weighted: by what they see of it. Geometry only — the
     same samples serve every light.
     """
@@ -177,19 +190,24 @@ def neighbourhood_samples(scene: "mi.Scene", shape: "mi.Shape", vertices: np.nda
     sign = SIDES[side]
     v = np.asarray(vertices, np.float64)
     origin, normal, face = hat_points(v, faces, sign * desc.normals.astype(np.float64), at, count, rng)
-    direction = cosine_directions(normal, rng)
+    direction = cosine_directions(normal, rng, stratified_unit_square(len(at), count, rng))
     eps = ray_offset(r, v)
     ray = mi.Ray3f(_vec3(origin + eps * normal, mi.Point3f), _vec3(direction, mi.Vector3f))
     ray.maxt = mi.Float(2.0 * r)
     si = scene.ray_intersect(ray)
-    found = np.asarray(si.is_valid() & (si.shape == mi.ShapePtr(shape))).reshape(len(at), count)
+    hit = si.is_valid() & (si.shape == mi.ShapePtr(shape))
+    hit_albedo = albedo(si, si.is_valid())
+    dr.eval(hit, si.p, si.sh_frame.n, si.prim_index, hit_albedo)  # one kernel: the rays are traced once
+    found = np.asarray(hit).reshape(len(at), count)
     p = _np3(si.p).reshape(len(at), count, 3)
     n = _np3(si.sh_frame.n).reshape(len(at), count, 3)
     prim = np.asarray(si.prim_index).reshape(len(at), count)
-    found &= (np.linalg.norm(p - v[at][:, None], axis=-1) < r) & (prim != face)
+    # within r of where the ray left — LocalPT's N(x_o) is the sphere about the first hit, and
+    # on a coarse mesh a point of the vertex's faces can lie far from the vertex
+    found &= (np.linalg.norm(p - origin, axis=-1) < r) & (prim != face)
     n = np.where((np.einsum("vkj,vkj->vk", n, direction) > 0)[..., None], -n, n)
-    albedo = np.where(found[..., None], _albedo_at(si).reshape(len(at), count, 3), 0.0)
-    return Neighbours(points=p, normals=n, found=found, albedo=albedo)
+    albedo_found = np.where(found[..., None], _np3(hit_albedo).reshape(len(at), count, 3), 0.0)
+    return Neighbours(points=p, normals=n, found=found, albedo=albedo_found)
 
 
 def lit_share(scene: "mi.Scene", nb: Neighbours, to_light: np.ndarray, radius: float) -> np.ndarray:
@@ -202,17 +220,19 @@ def lit_share(scene: "mi.Scene", nb: Neighbours, to_light: np.ndarray, radius: f
     unoccluded that way) — light a translucent fabric lets through towards x_o (the surface
     model transmits: its yarns' body transmission and its gaps).
     """
-    d = np.asarray(to_light, np.float64)
-    d = np.broadcast_to(d[:, None] if d.ndim == 2 else d, nb.points.shape)
-    cos = np.einsum("vkj,vkj->vk", nb.normals, d)
-    front, back = np.zeros(nb.found.shape), np.zeros(nb.found.shape)
-    if nb.found.any():  # shadow rays only from the samples found (most rays of an open side find nothing)
-        f = nb.found
-        up = cos[f] > 0  # the side of each sample the light faces; the other is unlit
-        points, normals = nb.points[f], np.where(up[:, None], nb.normals[f], -nb.normals[f])
-        weight = lit(scene, points, normals, d[f], radius) * np.abs(cos[f])
-        front[f], back[f] = np.where(up, weight, 0.0), np.where(up, 0.0, weight)
-    return np.stack([front.mean(axis=1), back.mean(axis=1)], axis=1)
+    V, K = nb.found.shape
+    out = np.zeros((V, 2))
+    row, _ = np.nonzero(nb.found)  # shadow rays only from the samples found (most rays of an open side find nothing)
+    if len(row):
+        d = np.asarray(to_light, np.float64)
+        d = d[row] if d.ndim == 2 else np.broadcast_to(d, (len(row), 3))
+        points, normals = nb.points[nb.found], nb.normals[nb.found]
+        cos = np.einsum("mj,mj->m", normals, d)
+        up = cos > 0  # the side of each sample the light faces; the other is unlit
+        weight = lit(scene, points, np.where(up[:, None], normals, -normals), d, radius) * np.abs(cos)
+        out[:, 0] = np.bincount(row, np.where(up, weight, 0.0), minlength=V) / K
+        out[:, 1] = np.bincount(row, np.where(up, 0.0, weight), minlength=V) / K
+    return out
 
 
 # --------------------------------------------------------------------------- ASG
