@@ -415,3 +415,42 @@ def test_aligned_cells_of_a_back_lit_photo_hold_its_fabric():
                                                       white=white_level(image)).render()
                                        - cell_canvas(image, cells, 12)))) for p in (truth.pattern, 1 - truth.pattern))
     assert -10 * np.log10(best) > 30.0
+
+
+@pytest.mark.parametrize("losses, agree, chosen", [
+    ((0.001399, 0.00153), (0.5, 0.5 + 1e-9), "pre_estimate"),   # the votes say nothing: the lower loss stays
+    ((0.00153, 0.001399), (1.0, 0.794), "pre_estimate"),        # they back the start 9% above: it is taken
+    ((0.00153, 0.001399), (0.53, 0.5), "dual"),                 # within the vote margin: the lower loss stays
+])
+def test_votes_settle_tied_starts_only_when_they_back_one(monkeypatch, losses, agree, chosen):
+    """The bench's plain weave photographed a stop darker: its pre-estimate start fitted 0.001399,
+    the dual (cells flipped, warp and weft swapped) 0.00153 — a tie within the 10% band — and
+    votes that said nothing (0.5 each, the plain's cells alike) handed it to the dual, whose
+    colours are the other family's (exposure check ΔE 58/34 instead of 8.6/5.8). Tied starts go
+    to the votes only when they back one by more than the vote margin (the independent twill
+    2/2 Z: agreement 1.0 against 0.79)."""
+    from types import SimpleNamespace
+
+    from weavecap import pipeline
+    from weavecap.fit import rounds
+    from weavecap.fit.joint import FitResult
+
+    start = params.load(FIXTURES / "plain.json")
+    own = start.pattern.copy()
+
+    def fake_round(prepared, cells, fabric, options, config, **kw):
+        loss = losses[0] if np.array_equal(fabric.pattern, own) else losses[1]
+        result = FitResult(fabric=fabric, loss=loss, history=[loss], iterations=1, seconds=0.0, stopped="iterations")
+        return rounds.RegisteredFit(result=result, target=None, cells=cells, blur_px=0.0, notes={"cell_shift": [0, 0]})
+
+    monkeypatch.setattr(rounds, "best_named_weave", lambda prepared, cells, start, rig, *, c, tolerance=0.0: None)
+    monkeypatch.setattr(rounds, "_fit_round", fake_round)
+    monkeypatch.setattr(rounds, "photo_votes",  # votes of the plain's own pattern: no start of their own
+                        lambda prepared, cells, fabric, rig, c: np.where(own == 1, 0.3, -0.3))
+    monkeypatch.setattr(rounds.RegisteredFit, "agreement",
+                        lambda self: agree[0] if np.array_equal(self.result.fabric.pattern, own) else agree[1])
+    prepared = SimpleNamespace(regularized=SimpleNamespace(box=(0.0, 0.0, 10.0, 10.0)))
+    cells = CellGrid(rows=np.arange(3.0), cols=np.arange(3.0))
+    out = rounds.fit_registered(prepared, cells, start, pipeline.CaptureOptions(), c=8, fixed=frozenset(),
+                                  explore_patterns=True)
+    assert out.notes["start"]["within_noise"] and out.notes["start"]["chosen"] == chosen

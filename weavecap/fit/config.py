@@ -81,7 +81,9 @@ class FitConfig:
         truth, fitted 6.3% above the dual's twill 3/1)
     vote_margin : the named-weave end stage keeps a custom pattern whose agreement with the
         votes (:func:`weavecap.estimate.orientation.agreement`) is more than this above the
-        named weave's
+        named weave's; a tied first-round start replaces the lowest only when the votes back it
+        by more than this (the bench's plain a stop darker: votes 0.5 for both starts, the
+        saying-nothing value, had handed it the dual, whose colours are the other family's)
     """
 
     iterations: int = 120

@@ -218,7 +218,8 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
     complement). A third start is the named weave of the same repeat that explains the photo
     best, when it explains it better than the pre-estimate (:func:`best_named_weave`). Starts
     whose losses the photo cannot tell apart (:func:`same_within_noise`, and within
-    ``config.start_tie_tolerance`` of the lowest) are settled by the model-free votes. At the
+    ``config.start_tie_tolerance`` of the lowest, or within ``config.start_tie_band``) are
+    settled by the model-free votes when they back one by more than ``config.vote_margin``. At the
     end, a fitted pattern that is no named weave is tried against the best named weave of its
     shape and against the chosen start's pattern when that was a named weave, each fitted with
     its pattern fixed; one clearly lower (by more than ``config.named_weave_tolerance``) is
@@ -278,12 +279,15 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
                 and firsts[name].result.loss <= best.result.loss * (1.0 + config.start_tie_tolerance)
                 and (firsts[name].result.loss <= best.result.loss * (1.0 + config.start_tie_band)
                      or same_within_noise(best, firsts[name], spp=config.spp))]
-        backed = max([chosen] + tied, key=lambda name: firsts[name].agreement())
-        chosen, best = backed, firsts[backed]
+        agree = {name: firsts[name].agreement() for name in [chosen] + tied}
+        backed = max(tied, key=agree.get, default=chosen)
+        if agree[backed] > agree[chosen] + config.vote_margin:  # votes that say nothing leave the lowest
+            chosen, best = backed, firsts[backed]
     notes = {"cell_shift": [best.notes["cell_shift"]]}
     if explore_patterns:
         notes["start"] = {"chosen": chosen, **{name: round(r.result.loss, 6) for name, r in firsts.items()},
-                          "within_noise": tied}
+                          "within_noise": tied,
+                          "votes_agree": {name: round(a, 3) for name, a in agree.items()} if tied else {}}
     if votes is not None:
         notes["votes"] = {"pattern": vote_pattern(votes).astype(int).tolist(),
                           "cells": [[round(float(v), 3) for v in row] for row in votes]}
