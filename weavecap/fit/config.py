@@ -69,9 +69,21 @@ class FitConfig:
         least this decided keeps the vote's state through the fit: on the independent bench
         photos 98% of such cells were right (92% of those voted 0.3–0.5, 70% under 0.05); on
         the forward model's own renders no cell reaches it (votes ≤ 0.43)
+    start_tie_tolerance : first-round starts tie (and the votes choose among them) only when
+        their losses are also within this fraction of the lowest: with a 2×2 repeat the paired
+        test of :func:`weavecap.fit.rounds.same_within_noise` has 4 cells and called a loss 53%
+        higher a tie (the real plain W027: the votes took the dual, whose weft collapsed to a
+        thin black yarn and the blue was lost); the ties it settled well were 6–11% apart
+        (on the bench and the real photos), the harmful ones 18–53%
+    start_tie_band : starts within this fraction of the lowest loss tie even where the paired
+        test tells them apart: the model differs from a real photo by more than its noise, and a
+        wrong face can fit a little better (the independent twill 2/2 Z: its votes' pattern, the
+        truth, fitted 6.3% above the dual's twill 3/1)
     vote_margin : the named-weave end stage keeps a custom pattern whose agreement with the
         votes (:func:`weavecap.estimate.orientation.agreement`) is more than this above the
-        named weave's
+        named weave's; a tied first-round start replaces the lowest only when the votes back it
+        by more than this (the bench's plain a stop darker: votes 0.5 for both starts, the
+        saying-nothing value, had handed it the dual, whose colours are the other family's)
     """
 
     iterations: int = 120
@@ -101,6 +113,8 @@ class FitConfig:
     family_colour_tolerance: float = 0.1
     vote_lock: float = 0.5
     vote_margin: float = 0.05
+    start_tie_tolerance: float = 0.15
+    start_tie_band: float = 0.10
 
     def with_(self, **changes) -> "FitConfig":
         return replace(self, **changes)
