@@ -122,6 +122,40 @@ def canonical_frame(desc: Descriptors, side: int, at) -> tuple[np.ndarray, np.nd
     return x, y, n, (c0, g, Q)
 
 
+@dataclass(frozen=True)
+class SideInputs:
+    """What :func:`inputs` needs of a side at some vertices, whatever the light: the fold's
+    frame (x, y, n; (N, 3) each), the neighbourhood normal n_N (N, 3) and φ_S (N, 9)."""
+
+    x: np.ndarray
+    y: np.ndarray
+    n: np.ndarray
+    n_nbr: np.ndarray
+    shape: np.ndarray
+
+
+def side_inputs(desc: Descriptors, side: int, at) -> SideInputs:
+    """The light-independent part of :func:`inputs` for vertices ``at`` on ``side`` (computed
+    once a side, then indexed for every light)."""
+    at = np.asarray(at)
+    x, y, n, (c0, g, Q) = canonical_frame(desc, side, at)
+    sign = 1.0 if side == 0 else -1.0
+    hv = desc.hill_valley[at, side].astype(np.float64)
+    shape = np.column_stack([hv, c0, g[:, 2], Q[:, 0, 0], Q[:, 1, 1], Q[:, 2, 2], 2 * Q[:, 0, 1], 2 * Q[:, 0, 2],
+                             2 * Q[:, 1, 2]])
+    return SideInputs(x, y, n, sign * desc.neighbourhood_normal[at].astype(np.float64), shape)
+
+
+def light_inputs(side: SideInputs, rows, to_light: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`inputs` of rows ``rows`` (M,) of ``side`` lit from ``to_light`` (M, 3)."""
+    l = np.asarray(to_light, np.float64)
+    x, y, n, n_nbr = side.x[rows], side.y[rows], side.n[rows], side.n_nbr[rows]
+    features = np.column_stack([side.shape[rows], np.einsum("nk,nk->n", l, n), np.einsum("nk,nk->n", l, n_nbr)])
+    light_local = np.column_stack([np.einsum("nk,nk->n", l, x), np.einsum("nk,nk->n", l, y),
+                                   np.einsum("nk,nk->n", l, n)])
+    return features, light_local
+
+
 def inputs(desc: Descriptors, side: int, at, to_light: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Network inputs for vertices ``at`` on ``side`` lit from ``to_light``.
 
@@ -136,16 +170,7 @@ def inputs(desc: Descriptors, side: int, at, to_light: np.ndarray) -> tuple[np.n
     light_local : (N, 3) ω_i in that frame (:func:`canonical_frame`)
     """
     at = np.asarray(at)
-    x, y, n, (c0, g, Q) = canonical_frame(desc, side, at)
-    l = np.asarray(to_light, np.float64)
-    sign = 1.0 if side == 0 else -1.0
-    n_nbr = sign * desc.neighbourhood_normal[at].astype(np.float64)
-    hv = desc.hill_valley[at, side].astype(np.float64)
-    features = np.column_stack([hv, c0, g[:, 2], Q[:, 0, 0], Q[:, 1, 1], Q[:, 2, 2], 2 * Q[:, 0, 1], 2 * Q[:, 0, 2],
-                                2 * Q[:, 1, 2], np.einsum("nk,nk->n", l, n), np.einsum("nk,nk->n", l, n_nbr)])
-    light_local = np.column_stack([np.einsum("nk,nk->n", l, x), np.einsum("nk,nk->n", l, y),
-                                   np.einsum("nk,nk->n", l, n)])
-    return features, light_local
+    return light_inputs(side_inputs(desc, side, at), np.arange(len(at)), to_light)
 
 
 def sh_basis(w: np.ndarray) -> np.ndarray:
