@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass
+from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -183,6 +184,14 @@ def sh_basis(w: np.ndarray) -> np.ndarray:
 
 # --------------------------------------------------------------------------- the network
 
+@lru_cache(maxsize=1)
+def _blas():
+    """threadpoolctl's controller of the BLAS libraries, made once (finding them reads files: ~5 ms)."""
+    from threadpoolctl import ThreadpoolController
+
+    return ThreadpoolController()
+
+
 def _silu(x):
     return x / (1.0 + np.exp(-np.clip(x, -60, 60)))
 
@@ -230,15 +239,13 @@ class BLIDF:
         channel: ρ_N · softplus(MLP_I) · max(0, 1 + Σ a_lm Y_lm(ω_i)).
         The albedo of x_o itself (its texture, at render time) multiplies it.
         """
-        from threadpoolctl import threadpool_limits
-
         x = self.standardise(np.asarray(features, np.float64)).astype(np.float32)  # float32: 2x faster, ample
         albedo = np.asarray(albedo, np.float64)
         n, channels = albedo.shape
         # one BLAS thread: these products are narrow (≤ 32 columns) and two threads only wait on each other —
         # side by side under load ~3, 3,000 / 21,000 / 100,000 rows: 0.039 / 0.099 / 0.38 s with two, 0.010 /
         # 0.059 / 0.16 s with one
-        with threadpool_limits(limits=1):
+        with _blas().limit(limits=1):
             direction = np.maximum(1.0 + np.einsum("nk,nk->n", sh_basis(light_local), _mlp(self.arrays, "d", x)), 0.0)
             rows = np.concatenate([np.column_stack([x, albedo[:, c].astype(np.float32)]) for c in range(channels)])
             intensity = _softplus(_mlp(self.arrays, "i", rows).astype(np.float64)).reshape(channels, n, len(SHARES))
