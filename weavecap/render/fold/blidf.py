@@ -269,5 +269,14 @@ class BLIDF:
 
     @classmethod
     def load(cls, path: Path | None = None) -> "BLIDF":
+        """The weights in ``path`` (the shipped ones by default), parsed once per file version
+        (``weavecap render`` loads them for every frame; the parse took ~5 ms)."""
         path = Path(path) if path is not None else weights_path()
-        return cls.from_json(json.loads(path.read_text()), source=str(path))
+        stat = path.stat()
+        return _parsed(cls, str(path), stat.st_mtime_ns, stat.st_size)
+
+
+@lru_cache(maxsize=4)
+def _parsed(cls, path: str, mtime_ns: int, size: int) -> BLIDF:
+    """:meth:`BLIDF.load`'s parse, cached by the file's path, modification time and size."""
+    return cls.from_json(json.loads(Path(path).read_text()), source=path)
