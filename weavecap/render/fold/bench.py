@@ -125,12 +125,15 @@ def _localpt_scene(fabric, mesh, options, radius: float):
 def _in_time(budget: float, scenes, seed: int, announce=lambda spp: None):
     """The sum of ``scenes``' renders at the largest spp that fits in ``budget`` seconds (at
     least 1): (image (H, W, 3) float64, spp, seconds taken). The seconds per spp are measured
-    just before, warm, by rendering them at :data:`SPP` (which also compiles their kernels, as
-    the side it is compared with is timed warm), and a last pass of fewer samples than
+    just before, warm, by rendering them at :data:`SPP` after a pass that compiles their kernels
+    (the side it is compared with is timed warm; in the bench's order of renders a rate taken
+    with the compile in it gave LocalPT 9–16 spp where it renders ~60), and a last pass of fewer samples than
     ``run.PASS_SPP`` is compiled before the timing too (a pass of another spp is another kernel:
     crumpled sheet, 69 spp, 1.3 s cold against 0.4 s warm)."""
     from ..run import PASS_SPP, render_passes
 
+    for scene in scenes:  # compile first: a kernel compiled inside the timing would cost LocalPT samples
+        render_passes(scene, PASS_SPP, seed + 3000)
     t = time.perf_counter()
     for scene in scenes:
         render_passes(scene, SPP, seed + 1000)
@@ -175,7 +178,7 @@ def measure_mesh(name: str, path: Path, view, seen: bool, *, folder: Path, progr
     """Every image and error of one mesh (see the module docstring)."""
     from ... import params
     from ..mesh import load_mesh
-    from ..run import RenderOptions, prepare_render, render_passes
+    from ..run import PASS_SPP, RenderOptions, prepare_render, render_passes
     from . import term
     from .descriptors import cached_descriptors
 
@@ -204,7 +207,7 @@ def measure_mesh(name: str, path: Path, view, seen: bool, *, folder: Path, progr
     pt, t_pt = _timed(render_passes, pt_scene, REF_SPP, 1)
     # equal time, both sides warm (kernels compiled): direct at SPP + the fold term, against
     # LocalPT (direct + local) in the same time
-    render_passes(scene, 1, 9)  # the fold term gave the garment attributes: compile the direct kernel again
+    render_passes(scene, PASS_SPP, 9)  # the fold term gave the garment attributes: compile the direct kernel again
     # warm the fold term just before it is timed, as LocalPT's rate is measured just after its own warm-up: its
     # first call after another scene's render compiles its kernels again (towel, 192x108: its pass 0.36 s, then 0.015)
     term.fold_light(scene, mesh, seed=1)
@@ -253,7 +256,7 @@ def frame_time(name: str, path: Path, view, *, progress=None) -> dict:
     direct + LocalPT's local light at :data:`FRAME_REF_SPP`."""
     from ... import params
     from ..mesh import load_mesh
-    from ..run import RenderOptions, prepare_render, render_passes
+    from ..run import PASS_SPP, RenderOptions, prepare_render, render_passes
     from .descriptors import cached_descriptors
 
     fabric = params.load(FABRIC)
@@ -261,7 +264,8 @@ def frame_time(name: str, path: Path, view, *, progress=None) -> dict:
     options = RenderOptions(mode="direct", spp=SPP, size=FRAME_SIZE, view=view, light=LIGHT, fold="off", seed=1)
     say = progress or (lambda m: None)
     say(f"fold bench: {name}: 1280×720 frame")
-    _render(fabric, mesh, replace(options, size=(64, 36), spp=4, fold="on"))  # compile every kernel first
+    for fold in ("off", "on"):  # compile every kernel first: passes of PASS_SPP, with and without the fold attributes
+        _render(fabric, mesh, replace(options, spp=PASS_SPP, fold=fold))
     off, t_off, info_off = _render(fabric, mesh, options)
     on, t_on, info_on = _render(fabric, mesh, replace(options, fold="on"))  # the same seed: on - off is the term
     fold = info_on["timings"]["fold"]
