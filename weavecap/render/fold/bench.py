@@ -22,7 +22,8 @@ term's second call, and LocalPT's seconds per spp measured just before at :data:
 its spp fit the time it gets: timed cold or from the 4096-spp rate they did not). So also
 *the local light at equal time*: the reference's
 direct image plus the fold term, against it plus LocalPT's local light at the spp that renders
-in the fold term's time. *Seen* meshes are the
+in the fold term's time (the fold term is called once more just before it is timed: its first
+call after another scene's render compiles its kernels again). *Seen* meshes are the
 fixture meshes of the shapes trained on (at the fixtures' own, coarser tessellation);
 *unseen*: the towel of ``../shared/meshes`` (without the head under it) and
 :func:`crumpled_sheet`, folds in random directions, made here.
@@ -124,15 +125,23 @@ def _localpt_scene(fabric, mesh, options, radius: float):
 def _in_time(budget: float, scenes, seed: int, announce=lambda spp: None):
     """The sum of ``scenes``' renders at the largest spp that fits in ``budget`` seconds (at
     least 1): (image (H, W, 3) float64, spp, seconds taken). The seconds per spp are measured
-    just before, warm, by rendering them at :data:`SPP` (which also compiles their kernels, as
-    the side it is compared with is timed warm)."""
-    from ..run import render_passes
+    just before, warm, by rendering them at :data:`SPP` after a pass that compiles their kernels
+    (the side it is compared with is timed warm; in the bench's order of renders a rate taken
+    with the compile in it gave LocalPT 9–16 spp where it renders ~60), and a last pass of fewer samples than
+    ``run.PASS_SPP`` is compiled before the timing too (a pass of another spp is another kernel:
+    crumpled sheet, 69 spp, 1.3 s cold against 0.4 s warm)."""
+    from ..run import PASS_SPP, render_passes
 
+    for scene in scenes:  # compile first: a kernel compiled inside the timing would cost LocalPT samples
+        render_passes(scene, PASS_SPP, seed + 3000)
     t = time.perf_counter()
     for scene in scenes:
         render_passes(scene, SPP, seed + 1000)
     spp = max(1, int(budget / ((time.perf_counter() - t) / SPP)))
     announce(spp)
+    if spp % PASS_SPP:  # a pass of another spp is another kernel: compile it too, so the time taken is warm
+        for scene in scenes:
+            render_passes(scene, spp % PASS_SPP, seed + 2000)
     t = time.perf_counter()
     image = sum(render_passes(scene, spp, seed).astype(np.float64) for scene in scenes)
     return image, spp, time.perf_counter() - t
@@ -169,7 +178,7 @@ def measure_mesh(name: str, path: Path, view, seen: bool, *, folder: Path, progr
     """Every image and error of one mesh (see the module docstring)."""
     from ... import params
     from ..mesh import load_mesh
-    from ..run import RenderOptions, prepare_render, render_passes
+    from ..run import PASS_SPP, RenderOptions, prepare_render, render_passes
     from . import term
     from .descriptors import cached_descriptors
 
@@ -198,7 +207,10 @@ def measure_mesh(name: str, path: Path, view, seen: bool, *, folder: Path, progr
     pt, t_pt = _timed(render_passes, pt_scene, REF_SPP, 1)
     # equal time, both sides warm (kernels compiled): direct at SPP + the fold term, against
     # LocalPT (direct + local) in the same time
-    render_passes(scene, 1, 9)  # the fold term gave the garment attributes: compile the direct kernel again
+    render_passes(scene, PASS_SPP, 9)  # the fold term gave the garment attributes: compile the direct kernel again
+    # warm the fold term just before it is timed, as LocalPT's rate is measured just after its own warm-up: its
+    # first call after another scene's render compiles its kernels again (towel, 192x108: its pass 0.36 s, then 0.015)
+    term.fold_light(scene, mesh, seed=1)
     fast, t_fast = _timed(render_passes, scene, SPP, 2)
     _, t_fold_warm = _timed(term.fold_light, scene, mesh, seed=1)
     budget = t_fast + t_fold_warm
@@ -244,7 +256,7 @@ def frame_time(name: str, path: Path, view, *, progress=None) -> dict:
     direct + LocalPT's local light at :data:`FRAME_REF_SPP`."""
     from ... import params
     from ..mesh import load_mesh
-    from ..run import RenderOptions, prepare_render, render_passes
+    from ..run import PASS_SPP, RenderOptions, prepare_render, render_passes
     from .descriptors import cached_descriptors
 
     fabric = params.load(FABRIC)
@@ -252,7 +264,8 @@ def frame_time(name: str, path: Path, view, *, progress=None) -> dict:
     options = RenderOptions(mode="direct", spp=SPP, size=FRAME_SIZE, view=view, light=LIGHT, fold="off", seed=1)
     say = progress or (lambda m: None)
     say(f"fold bench: {name}: 1280×720 frame")
-    _render(fabric, mesh, replace(options, size=(64, 36), spp=4, fold="on"))  # compile every kernel first
+    for fold in ("off", "on"):  # compile every kernel first: passes of PASS_SPP, with and without the fold attributes
+        _render(fabric, mesh, replace(options, spp=PASS_SPP, fold=fold))
     off, t_off, info_off = _render(fabric, mesh, options)
     on, t_on, info_on = _render(fabric, mesh, replace(options, fold="on"))  # the same seed: on - off is the term
     fold = info_on["timings"]["fold"]
@@ -427,6 +440,15 @@ def picture(folder: Path, names: list[str], out: Path) -> Path:
     return out
 
 
+USAGE = """usage: python -m weavecap.render.fold.bench OUT [--quick]
+
+The fold renderer's section of `weavecap bench --render` alone: every mesh against LocalPT and PT
+at 192x108 (4096 spp), equal time, and the 1280x720 frames; writes OUT/fold.json, OUT/fold.md,
+OUT/fold.png and the images under OUT/images. --quick: one seen and one unseen mesh.
+
+example: nice -n 5 python -m weavecap.render.fold.bench /tmp/fold-bench"""
+
+
 def main(argv: list[str] | None = None) -> None:
     """``python -m weavecap.render.fold.bench OUT [--quick]``: this section alone, as ``weavecap
     bench --render`` runs it; writes OUT/fold.json, OUT/fold.md and OUT/fold.png."""
@@ -437,7 +459,11 @@ def main(argv: list[str] | None = None) -> None:
 
     args = list(sys.argv[1:] if argv is None else argv)
     quick = "--quick" in args
-    out = Path(next(a for a in args if not a.startswith("--")))
+    folders = [a for a in args if not a.startswith("-")]
+    if "-h" in args or "--help" in args or len(folders) != 1 or set(args) - {*folders, "--quick"}:
+        print(USAGE, file=sys.stdout if "-h" in args or "--help" in args else sys.stderr)
+        raise SystemExit(0 if "-h" in args or "--help" in args else 2)
+    out = Path(folders[0])
     out.mkdir(parents=True, exist_ok=True)
     result = run(quick, progress=lambda m: print(m, file=sys.stderr, flush=True), folder=out / "images")
     atomic_write_text(out / "fold.json", json.dumps({**result, "summary": summary(result)}, indent=1) + "\n")

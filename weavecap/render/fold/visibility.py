@@ -219,20 +219,29 @@ def lit_share(scene: "mi.Scene", nb: Neighbours, to_light: np.ndarray, radius: f
     irradiance of one bounce. Column 1: the same for samples lit on their far side (−n_k·ω_i > 0,
     unoccluded that way) — light a translucent fabric lets through towards x_o (the surface
     model transmits: its yarns' body transmission and its gaps).
+
+    ``to_light``: (3,) or (V, 3) unit directions towards one light; or (L, V, 3), L lights at
+    once (then (L, V, 2), their shadow rays in one Mitsuba query — one call a light costs a
+    kernel launch and the numpy round trip each).
     """
     V, K = nb.found.shape
-    out = np.zeros((V, 2))
+    d = np.asarray(to_light, np.float64)
+    many = d.ndim == 3
+    d = np.broadcast_to(d if many else d.reshape(1, -1, 3), (len(d) if many else 1, V, 3))
+    L = len(d)
+    out = np.zeros((L, V, 2))
     row, _ = np.nonzero(nb.found)  # shadow rays only from the samples found (most rays of an open side find nothing)
     if len(row):
-        d = np.asarray(to_light, np.float64)
-        d = d[row] if d.ndim == 2 else np.broadcast_to(d, (len(row), 3))
+        d = d[:, row]  # (L, M, 3)
         points, normals = nb.points[nb.found], nb.normals[nb.found]
-        cos = np.einsum("mj,mj->m", normals, d)
+        cos = np.einsum("mj,lmj->lm", normals, d)
         up = cos > 0  # the side of each sample the light faces; the other is unlit
-        weight = lit(scene, points, np.where(up[:, None], normals, -normals), d, radius) * np.abs(cos)
-        out[:, 0] = np.bincount(row, np.where(up, weight, 0.0), minlength=V) / K
-        out[:, 1] = np.bincount(row, np.where(up, 0.0, weight), minlength=V) / K
-    return out
+        weight = lit(scene, np.broadcast_to(points, d.shape), np.where(up[..., None], normals, -normals), d,
+                     radius) * np.abs(cos)
+        index = (np.arange(L)[:, None] * V + row).ravel()
+        for column, part in enumerate((np.where(up, weight, 0.0), np.where(up, 0.0, weight))):
+            out[..., column] = np.bincount(index, part.ravel(), minlength=L * V).reshape(L, V) / K
+    return out if many else out[0]
 
 
 # --------------------------------------------------------------------------- ASG
