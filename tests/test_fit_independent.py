@@ -45,12 +45,14 @@ def test_a_photo_brighter_than_the_rig_is_not_blown_out(tmp_path):
     photo is brighter than the rig can make a white fabric. The fit once ended with every
     colour at 0 or 1, a gain of 22 and a render blown to white (sharpness 0, ΔE 23 and 20,
     both families at L* 100); with the pre-estimate made at the photo's exposure the render
-    keeps edges and colour (measured: sharpness 0.55, ΔE 16.5 and 6.6, L* 83 and 87 where the
-    photo has 94 and 91: a pink haze — the cream weft is not yet right)."""
+    keeps edges and colour. Measured: with the dual start (votes 0.72 against 0.68, within the
+    vote margin) sharpness 0.55, ΔE 16.5 and 6.6 (a pink haze); since tied starts keep the
+    lower loss unless the votes clearly back another, sharpness 0.26, ΔE 1.1 and 3.5, L* 84
+    and 83 where the photo has 83 and 80 (the colours right, the yarn edges soft)."""
     spec = hp.with_camera(hp.bench_specs()[1], size_px=(640, 640))
     cap = capture(hp.write_photo(tmp_path / f"{spec.name}.jpg", spec, seed=3), CaptureOptions(quality="draft"))
     fid = cap.report["fit"]["fidelity"]
-    assert fid["sharpness"] > 0.4, fid
-    assert min(fid["delta_e"].values()) < 10, fid
+    assert fid["sharpness"] > 0.2, fid
+    assert max(fid["delta_e"].values()) < 5, fid
     assert all(fid["lab"][family]["render"][0] < 97 for family in ("warp", "weft")), fid
     assert cap.report["pre_estimation"]["exposure_gain"] > 2.0
