@@ -324,7 +324,7 @@ class _Fabric:
 
 # ------------------------------------------------------------------------------------ camera
 
-def homography(spec: PhotoSpec) -> np.ndarray:
+def _homography(spec: PhotoSpec) -> np.ndarray:
     """Fabric px (centred) → photo px: turn, then a camera pitched/yawed by ``tilt_deg`` at a
     distance of twice the photo's width, then centred in the photo."""
     h, w = spec.size_px
@@ -349,7 +349,7 @@ def scene_radiance(spec: PhotoSpec, *, seed: int = 0, supersample: int = 2) -> n
 
     rng = np.random.default_rng(seed)
     h, w = spec.size_px
-    hmg = homography(spec)
+    hmg = _homography(spec)
     inv = np.linalg.inv(hmg)
     fabric = _Fabric(spec, rng, extent_px=2.0 * np.hypot(h, w))
     out = np.zeros((h, w, 3), np.float64)

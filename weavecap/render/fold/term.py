@@ -160,9 +160,10 @@ def interpolation(vertices: np.ndarray, normals: np.ndarray, at: np.ndarray, spa
     own = np.full(V, -1)
     own[at] = np.arange(A)
     rest = np.flatnonzero(own < 0)
-    rows, cols, weights = [at, ], [np.arange(A)], [np.ones(A)]
+    rows, cols, weights = [at], [np.arange(A)], [np.ones(A)]
     if len(rest) and A:
-        dist, idx = cKDTree(v[at]).query(v[rest], k=min(NEAREST, A), distance_upper_bound=2 * spacing)
+        tree = cKDTree(v[at])
+        dist, idx = tree.query(v[rest], k=min(NEAREST, A), distance_upper_bound=2 * spacing)
         dist, idx = dist.reshape(len(rest), -1), idx.reshape(len(rest), -1)
         near = idx < A
         idx = np.where(near, idx, 0)
@@ -172,7 +173,7 @@ def interpolation(vertices: np.ndarray, normals: np.ndarray, at: np.ndarray, spa
         if lonely.any():
             w[lonely] = 0.0
             w[lonely, 0] = 1.0  # the nearest (the subset covers every vertex within √3 spacing)
-            idx[lonely, 0] = cKDTree(v[at]).query(v[rest[lonely]])[1]
+            idx[lonely, 0] = tree.query(v[rest[lonely]])[1]
         keep = w > 0
         rows.append(np.broadcast_to(rest[:, None], w.shape)[keep])
         cols.append(idx[keep])
