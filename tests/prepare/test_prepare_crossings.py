@@ -33,8 +33,8 @@ def test_crossings_split_a_projection_that_repeats_over_pairs():
     img = _holes(n, 12.0)
     pair = ((np.arange(n) // 12) % 2).astype(float)  # every other yarn brighter, along each axis
     img = img + 0.4 * pair[None, :] + 0.4 * pair[:, None]  # the projections' period: 24 px
-    (dx, dy), ratio = crossing_pitches(power_spectrum(img), (24.0, 24.0), divisors=(2, 3, 4, 6), min_pitch=4.0,
-                                       gain=2.0)
+    (dx, dy), ratio, _ = crossing_pitches(power_spectrum(img), (24.0, 24.0), divisors=(2, 3, 4, 6), min_pitch=4.0,
+                                          gain=2.0, min_share=0.01)
     assert (dx, dy) == (2, 2) and ratio > 2.0, ratio
 
 
@@ -45,8 +45,8 @@ def test_crossings_keep_yarns_with_a_centre_line():
     x = np.arange(n)
     yarn = 0.3 * np.cos(2 * np.pi * x / 12.0) ** 2
     img = _holes(n, 24.0) + yarn[None, :] + yarn[:, None]
-    (dx, dy), ratio = crossing_pitches(power_spectrum(img), (24.0, 24.0), divisors=(2, 3, 4, 6), min_pitch=4.0,
-                                       gain=2.0)
+    (dx, dy), ratio, _ = crossing_pitches(power_spectrum(img), (24.0, 24.0), divisors=(2, 3, 4, 6), min_pitch=4.0,
+                                          gain=2.0, min_share=0.01)
     assert (dx, dy) == (1, 1), ratio
 
 

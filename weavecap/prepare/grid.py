@@ -341,7 +341,7 @@ def crossing_power(power: np.ndarray, pitch_x: float, pitch_y: float) -> float:
 
 
 def crossing_pitches(power: np.ndarray, pitches: tuple[float, float], *, divisors: tuple[int, ...],
-                     min_pitch: float, gain: float) -> tuple[tuple[int, int], float]:
+                     min_pitch: float, gain: float, min_share: float) -> tuple[tuple[int, int], float, float]:
     """Whether the projections' pitches are whole multiples of the yarns (§4.4): the divisor of
     each pitch whose lattice of yarn crossings is the strongest.
 
@@ -352,8 +352,11 @@ def crossing_pitches(power: np.ndarray, pitches: tuple[float, float], *, divisor
     warp projection repeats over its 6 warps). The holes where the gaps cross do not care which
     yarn is on top: their lattice's fundamental (:func:`crossing_power`) is at the yarn pitch
     along both axes. A harmonic of the yarns (a bright centre line or a split ply, a half
-    pitch) crosses no gap, so its crossing peak is weak: the divisors are only taken when their
-    crossing power is at least ``gain`` times that of the projections' pitches.
+    pitch) crosses no gap, so its crossing peak is weak, and a lattice of holes is never stronger
+    at its own harmonics than at its fundamental: the divisors are only taken when their
+    crossing power is at least ``gain`` times that of the projections' pitches and at least
+    ``min_share`` of the spectrum's strongest peak (where floats cover the gaps, a satin, there
+    are no holes, and the ratio of two faint points is noise).
 
     Parameters
     ----------
@@ -362,11 +365,13 @@ def crossing_pitches(power: np.ndarray, pitches: tuple[float, float], *, divisor
     divisors : divisors tried on each axis (1 is always tried).
     min_pitch : finest pitch (px) a divisor may give.
     gain : how much stronger the crossing peak must be to take a divisor.
+    min_share : weakest crossing power taken, as a share of the spectrum's strongest peak.
 
     Returns
     -------
-    ((dx, dy), ratio): the divisors (1, 1 when the pitches stand) and the crossing power at
-    the pitches so divided over that at the projections' pitches.
+    ((dx, dy), ratio, share): the divisors (1, 1 when the pitches stand), the crossing power
+    at the best divided pitches over that at the projections' pitches, and that power as a
+    share of the strongest peak.
     """
     px, py = pitches
     base = crossing_power(power, px, py)
@@ -380,7 +385,8 @@ def crossing_pitches(power: np.ndarray, pitches: tuple[float, float], *, divisor
             if c > best_c:
                 best, best_c = (dx, dy), c
     ratio = best_c / max(base, 1e-300)
-    return (best, ratio) if ratio >= gain else ((1, 1), ratio)
+    share = best_c / max(float(power.max()), 1e-300)
+    return (best if ratio >= gain and share >= min_share else (1, 1)), ratio, share
 
 
 def spectrum_peaks(grey: np.ndarray, *, count: int = 16, rel_floor: float = 0.01,

@@ -250,8 +250,8 @@ def _projections(rect: Rectification, config: PrepareConfig) -> tuple[np.ndarray
     (smooth, pitches, strengths, contrasts, profiles, split): the smoothed grey image and, per
     axis (x: warps, then y: wefts), the pitch (px, None when no period), the periodicity of the
     projection at its period (:func:`~weavecap.prepare.grid.folded_strength`), its share of the
-    image's structure, and the projection itself; then ((dx, dy), ratio), the divisors taken
-    and the crossing power they gained.
+    image's structure, and the projection itself; then ((dx, dy), ratio, share), the divisors
+    taken, the crossing power the best ones gained and its share of the strongest peak.
     """
     r_img = rect.image
     rh_, rw_ = r_img.shape[:2]
@@ -272,10 +272,11 @@ def _projections(rect: Rectification, config: PrepareConfig) -> tuple[np.ndarray
         strengths.append(s)
         contrasts.append(float(prof.std()) / sd_img)
         profiles.append(prof)
-    split = ((1, 1), 1.0)
+    split = ((1, 1), 1.0, 0.0)
     if None not in pitches:  # a projection that repeats over several yarns (grid.crossing_pitches)
         split = crossing_pitches(power_spectrum(smooth, max_side=config.lattice_max_px), (pitches[0], pitches[1]),
                                  divisors=config.crossing_divisors, gain=config.crossing_gain,
+                                 min_share=config.crossing_min_share,
                                  min_pitch=max(config.crossing_min_pitch_px, config.min_pitch_px * rect.scale))
         pitches = [p / d for p, d in zip(pitches, split[0])]
     return smooth, pitches, strengths, contrasts, profiles, split
@@ -370,7 +371,7 @@ def prepare_photo(rgb: np.ndarray, config: PrepareConfig = PrepareConfig(), *,
     rh_, rw_ = r_img.shape[:2]
     p_guess = rect.coarse_pitch_px * rect.scale
     checks.update(grid_strength=strengths, grid_contrast=contrasts, pitch_divisors=list(split[0]),
-                  crossing_gain=split[1])
+                  crossing_gain=split[1], crossing_share=split[2])
     if any(p is None for p in pitches):
         timings["grid"] = time.perf_counter() - t
         return Rejected("no periodic yarn grid was found along both yarn directions: this does not look like "
