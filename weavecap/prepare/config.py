@@ -102,6 +102,14 @@ class PrepareConfig:
     recoarse_ratio: float = 2.5
     #: the pitch is doubled (or tripled) while that explains this much more of the projection
     grid_octave_gain: float = 0.15
+    #: the projections' pitches are divided by these (per axis, grid.crossing_pitches) when the
+    #: lattice of yarn crossings is at least crossing_gain times stronger at the divided pitches
+    #: and at least crossing_min_share of the spectrum's strongest peak, none finer than
+    #: crossing_min_pitch_px (rectified px) or min_pitch_px (input px)
+    crossing_divisors: tuple[int, ...] = (2, 3, 4, 6)
+    crossing_gain: float = 2.0
+    crossing_min_share: float = 0.01
+    crossing_min_pitch_px: float = 4.0
 
     # --- rejection ---------------------------------------------------------------------------
     #: smallest resolvable yarn pitch in input px

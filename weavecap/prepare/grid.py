@@ -301,6 +301,94 @@ def repeat_along(dmf: np.ndarray, pitch: float, *, max_yarns: int = 64, rel_tol:
 
 # ----------------------------------------------------------------------------- spectral lattice
 
+def power_spectrum(grey: np.ndarray, *, max_side: int = 512) -> np.ndarray:
+    """The power spectrum of the (square, centred, at most ``max_side``) crop of ``grey``,
+    mean removed, Hann-windowed and zero-padded to twice its side, origin at the centre.
+
+    Returns
+    -------
+    (2n, 2n) float64 array, n the crop's side: entry (c + v, c + u), c = n, is the power at
+    (fx, fy) = (u, v) / (2n) cycles per pixel.
+    """
+    h, w = grey.shape
+    n = int(min(h, w, max_side))
+    g = np.asarray(grey, np.float64)[(h - n) // 2:(h - n) // 2 + n, (w - n) // 2:(w - n) // 2 + n]
+    g = (g - g.mean()) * np.outer(np.hanning(n), np.hanning(n))
+    return np.fft.fftshift(np.abs(np.fft.fft2(g, s=(2 * n, 2 * n))) ** 2)
+
+
+def crossing_power(power: np.ndarray, pitch_x: float, pitch_y: float) -> float:
+    """The power of the lattice of yarn crossings at its fundamental, (1/pitch_x, ±1/pitch_y).
+
+    The gaps between warps and those between wefts cross once per cell of the yarn grid; each
+    crossing is a hole (dark, or lit from behind), and the holes' lattice puts a peak at
+    (1/pitch_x, ±1/pitch_y) whatever the weave. The strongest power within one natural bin of
+    each of the two points, summed.
+
+    Parameters
+    ----------
+    power : (2n, 2n) from :func:`power_spectrum`.
+    pitch_x, pitch_y : yarn pitches (px) along x and y.
+    """
+    size = power.shape[0]
+    c = size // 2
+    total = 0.0
+    for sign in (1, -1):
+        ix, iy = int(round(c + size / pitch_x)), int(round(c + sign * size / pitch_y))
+        win = power[max(0, iy - 2):iy + 3, max(0, ix - 2):ix + 3]
+        total += float(win.max()) if win.size else 0.0
+    return total
+
+
+def crossing_pitches(power: np.ndarray, pitches: tuple[float, float], *, divisors: tuple[int, ...],
+                     min_pitch: float, gain: float, min_share: float) -> tuple[tuple[int, int], float, float]:
+    """Whether the projections' pitches are whole multiples of the yarns (§4.4): the divisor of
+    each pitch whose lattice of yarn crossings is the strongest.
+
+    A projection's period is the yarns' only where every yarn looks alike across the photo. A
+    weave whose repeat sets the yarns' mean brightness apart makes its projection repeat over
+    several yarns: a basket 2/2's pairs (a narrow gap between the yarns of a pair, a weaker
+    peak at their pitch than at the pair's), a random weave's columns of floats (a 3×6 whose
+    warp projection repeats over its 6 warps). The holes where the gaps cross do not care which
+    yarn is on top: their lattice's fundamental (:func:`crossing_power`) is at the yarn pitch
+    along both axes. A harmonic of the yarns (a bright centre line or a split ply, a half
+    pitch) crosses no gap, so its crossing peak is weak, and a lattice of holes is never stronger
+    at its own harmonics than at its fundamental: the divisors are only taken when their
+    crossing power is at least ``gain`` times that of the projections' pitches and at least
+    ``min_share`` of the spectrum's strongest peak (where floats cover the gaps, a satin, there
+    are no holes, and the ratio of two faint points is noise).
+
+    Parameters
+    ----------
+    power : (2n, 2n) from :func:`power_spectrum` of the rectified, lighting-flattened image.
+    pitches : (along x, along y) the projections' pitches (px).
+    divisors : divisors tried on each axis (1 is always tried).
+    min_pitch : finest pitch (px) a divisor may give.
+    gain : how much stronger the crossing peak must be to take a divisor.
+    min_share : weakest crossing power taken, as a share of the spectrum's strongest peak.
+
+    Returns
+    -------
+    ((dx, dy), ratio, share): the divisors (1, 1 when the pitches stand), the crossing power
+    at the best divided pitches over that at the projections' pitches, and that power as a
+    share of the strongest peak.
+    """
+    px, py = pitches
+    base = crossing_power(power, px, py)
+    best, best_c = (1, 1), base
+    ds = (1,) + tuple(d for d in divisors if d > 1)
+    for dx in ds:
+        for dy in ds:
+            if (dx, dy) == (1, 1) or px / dx < min_pitch or py / dy < min_pitch:
+                continue
+            c = crossing_power(power, px / dx, py / dy)
+            if c > best_c:
+                best, best_c = (dx, dy), c
+    ratio = best_c / max(base, 1e-300)
+    share = best_c / max(float(power.max()), 1e-300)
+    return (best if ratio >= gain and share >= min_share else (1, 1)), ratio, share
+
+
 def spectrum_peaks(grey: np.ndarray, *, count: int = 16, rel_floor: float = 0.01,
                    max_side: int = 512) -> np.ndarray:
     """The strongest peaks of the power spectrum of a rectified image, in one half-plane.
@@ -318,12 +406,8 @@ def spectrum_peaks(grey: np.ndarray, *, count: int = 16, rel_floor: float = 0.01
     parabola through the log power along each axis), strongest first; peaks within two
     natural bins of the origin (the lighting) are left out.
     """
-    h, w = grey.shape
-    n = int(min(h, w, max_side))
-    g = np.asarray(grey, np.float64)[(h - n) // 2:(h - n) // 2 + n, (w - n) // 2:(w - n) // 2 + n]
-    g = (g - g.mean()) * np.outer(np.hanning(n), np.hanning(n))
-    size = 2 * n
-    power = np.fft.fftshift(np.abs(np.fft.fft2(g, s=(size, size))) ** 2)
+    power = power_spectrum(grey, max_side=max_side)
+    size = power.shape[0]
     c = size // 2
     yy, xx = np.indices(power.shape)
     half = ((xx > c) | ((xx == c) & (yy > c))) & (np.hypot(yy - c, xx - c) > 4)

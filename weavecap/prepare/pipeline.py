@@ -28,8 +28,8 @@ import cv2
 import numpy as np
 
 from .config import PrepareConfig
-from .grid import (AxisGrid, Grid, axis_pitch, boundaries, cell_features, folded_strength, lattice_pitch, lattice_yarns,
-                   projection, refine_pitch, refine_repeat, repeat_along, spectrum_peaks)
+from .grid import (AxisGrid, Grid, axis_pitch, boundaries, cell_features, crossing_pitches, folded_strength, lattice_pitch,
+                   lattice_yarns, power_spectrum, projection, refine_pitch, refine_repeat, repeat_along, spectrum_peaks)
 from .illumination import flatten_illumination, luminance
 from .period import cell_repeat, complement_repeats, superposed_dmf
 from .rectify import Rectification, rectify
@@ -236,16 +236,22 @@ def _light_sigma(pitch_px: float, config: PrepareConfig) -> float:
     return config.illumination_sigma_pitches * max(pitch_px, 2.0) * 2
 
 
-def _projections(rect: Rectification, config: PrepareConfig) -> tuple[np.ndarray, list, list, list, list]:
+def _projections(rect: Rectification, config: PrepareConfig) -> tuple[np.ndarray, list, list, list, list, tuple]:
     """Flatten the lighting of the rectified photo, smooth it (σ = pitch/16, §4.2) and measure
     the yarn pitch of its integral projections along x and y (§4.4).
 
+    Where the lattice of yarn crossings shows the projections' period to be a whole number of
+    yarns (:func:`~weavecap.prepare.grid.crossing_pitches`: a basket's pairs, a random weave's
+    columns of floats), the pitch is divided; the periodicity stays that of the projection's
+    own period, which is what shows a regular grid.
+
     Returns
     -------
-    (smooth, pitches, strengths, contrasts, profiles): the smoothed grey image and, per axis
-    (x: warps, then y: wefts), the pitch (px, None when no period), the periodicity of the
-    projection at it (:func:`~weavecap.prepare.grid.folded_strength`), its share of the
-    image's structure, and the projection itself.
+    (smooth, pitches, strengths, contrasts, profiles, split): the smoothed grey image and, per
+    axis (x: warps, then y: wefts), the pitch (px, None when no period), the periodicity of the
+    projection at its period (:func:`~weavecap.prepare.grid.folded_strength`), its share of the
+    image's structure, and the projection itself; then ((dx, dy), ratio, share), the divisors
+    taken, the crossing power the best ones gained and its share of the strongest peak.
     """
     r_img = rect.image
     rh_, rw_ = r_img.shape[:2]
@@ -266,7 +272,14 @@ def _projections(rect: Rectification, config: PrepareConfig) -> tuple[np.ndarray
         strengths.append(s)
         contrasts.append(float(prof.std()) / sd_img)
         profiles.append(prof)
-    return smooth, pitches, strengths, contrasts, profiles
+    split = ((1, 1), 1.0, 0.0)
+    if None not in pitches:  # a projection that repeats over several yarns (grid.crossing_pitches)
+        split = crossing_pitches(power_spectrum(smooth, max_side=config.lattice_max_px), (pitches[0], pitches[1]),
+                                 divisors=config.crossing_divisors, gain=config.crossing_gain,
+                                 min_share=config.crossing_min_share,
+                                 min_pitch=max(config.crossing_min_pitch_px, config.min_pitch_px * rect.scale))
+        pitches = [p / d for p, d in zip(pitches, split[0])]
+    return smooth, pitches, strengths, contrasts, profiles, split
 
 
 def _cells(r_img: np.ndarray, pitch_px: tuple[float, float], origin_px: tuple[float, float], p_guess: float,
@@ -342,7 +355,7 @@ def prepare_photo(rgb: np.ndarray, config: PrepareConfig = PrepareConfig(), *,
     # --- lighting, Gaussian, projections → pitch (§4.4) -------------------------------------
     say("measuring the yarn grid")
     t = time.perf_counter()
-    smooth, pitches, strengths, contrasts, profiles = _projections(rect, config)
+    smooth, pitches, strengths, contrasts, profiles, split = _projections(rect, config)
     # the coarse period was a harmonic of the yarns (thin yarns, sharp gaps): the working
     # resolution and the perspective were chosen for yarns that are not there; do it again
     known = [p / rect.scale for p in pitches if p is not None]
@@ -353,11 +366,12 @@ def prepare_photo(rgb: np.ndarray, config: PrepareConfig = PrepareConfig(), *,
         timings["rectify"] += time.perf_counter() - t_again
         checks.update(skew_deg=rect.skew_deg, radon_contrast=rect.notes["radon"]["contrast"],
                       perspective=rect.perspective)
-        smooth, pitches, strengths, contrasts, profiles = _projections(rect, config)
+        smooth, pitches, strengths, contrasts, profiles, split = _projections(rect, config)
     r_img = rect.image
     rh_, rw_ = r_img.shape[:2]
     p_guess = rect.coarse_pitch_px * rect.scale
-    checks.update(grid_strength=strengths, grid_contrast=contrasts)
+    checks.update(grid_strength=strengths, grid_contrast=contrasts, pitch_divisors=list(split[0]),
+                  crossing_gain=split[1], crossing_share=split[2])
     if any(p is None for p in pitches):
         timings["grid"] = time.perf_counter() - t
         return Rejected("no periodic yarn grid was found along both yarn directions: this does not look like "
