@@ -67,11 +67,13 @@ def align_cells(image: np.ndarray, cells: CellGrid, sharp: np.ndarray | None = N
     wherever the yarn is darkest, half a pitch from the gap give or take the yarn's shading (a
     sixth of a cell on the fixtures' plain weave, and every estimate of the pre-estimate is
     then made on the wrong cells: the true fabric scored 19.6 dB against that canvas, 33.4 dB
-    registered). The corner-variance choice of the half was wrong on 14 of 48 axes of the fit
-    bench's photos (independent and own), dark gaps and back-lit alike; the holes (a dark pit
-    under a front light, a bright dot under a back light: a cell corner whatever the light)
-    choose right on all but the two whose repeat preparation got wrong (measured against the
-    independent photos' known lattice: docs/capture.md). The sub-cell position stays the
+    registered). The corner-variance choice of the half was wrong on 12 of 36 axes of the
+    independent bench photos, dark gaps and back-lit alike (measured against their known
+    lattice: docs/capture.md); the holes (a dark pit under a front light, a bright dot under a
+    back light: a cell corner whatever the light) leave 6 more than a quarter cell off: the two
+    photos whose repeat preparation got wrong, the dark plain whose 2-px gaps do not show, and
+    two whose mirror centre is itself a quarter cell off, where neither half is near. The
+    own renders' lattices are unchanged. The sub-cell position stays the
     mirror symmetry's even where a light from one side moves it by up to a fifth of a cell off
     the crossings: the forward model's shading is not the photo's, and on the cells put on the
     true crossings the pre-estimate of the independent twill 2/1 S fitted 10× worse (MSE
