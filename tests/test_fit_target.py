@@ -398,23 +398,6 @@ def test_mirror_phase_finds_the_gap_lattice_up_to_half_a_cell(gap, width):
     assert mirror_phase(np.full_like(canvas, 0.3), pattern.shape) == (0.0, 0.0)
 
 
-@pytest.mark.parametrize("gap", [0.01, 0.9])
-def test_hole_phase_finds_the_cell_corners_under_dark_and_bright_gaps(gap):
-    """A hole (no yarn over it) at every cell corner: a dark pit under a front light, a bright
-    dot under a back light. Either way the folded blobs land on the corners, moved by the
-    roll, with a concentration far above a flat canvas's (69.7 / 65.4 against 1.0)."""
-    from weavecap.estimate.cells import hole_phase
-
-    pattern = np.array([[1, 1, 0], [0, 1, 1], [1, 0, 1]])
-    canvas = _weave_canvas(pattern, gap=gap)
-    c = canvas.shape[0] // 3
-    for dy, dx in ((0, 0), (5, 11), (9, 3)):
-        hy, hx, conc = hole_phase(np.tile(np.roll(canvas, (dy, dx), axis=(0, 1)), (2, 2, 1)), c)
-        assert abs((hy - dy + c / 2) % c - c / 2) < 0.25 and abs((hx - dx + c / 2) % c - c / 2) < 0.25, (hy, hx)
-        assert conc > 40
-    assert hole_phase(np.full_like(canvas, 0.3), c)[2] < 2
-
-
 def test_aligned_cells_of_a_back_lit_photo_hold_its_fabric():
     """The fixtures' plain weave under the back light: its projection's valleys sit a sixth of
     a cell from where half a pitch puts the gaps. On the aligned cells the true fabric renders
@@ -471,51 +454,3 @@ def test_votes_settle_tied_starts_only_when_they_back_one(monkeypatch, losses, a
     out = rounds.fit_registered(prepared, cells, start, pipeline.CaptureOptions(), c=8, fixed=frozenset(),
                                   explore_patterns=True)
     assert out.notes["start"]["within_noise"] and out.notes["start"]["chosen"] == chosen
-
-
-def _lattice_error(prepared, cells, pitch: tuple[float, float], size: tuple[int, int]) -> np.ndarray:
-    """How far (cells, per axis (y, x), in [-0.5, 0.5)) the centres of ``cells`` (pixels of
-    ``prepared``'s regularized box) sit from the yarn crossings of an unturned, untilted
-    independent photo of ``size`` (h, w) with yarns at ``pitch`` (warp along x, weft along y)
-    and no position jitter: its crossings are at (w-1)/2 + (j+0.5)·pitch_x in the photo. The
-    circular mean over the repeat's cells."""
-    reg = prepared.regularized
-    y0, x0, y1, x1 = reg.box
-    oh, ow = reg.image.shape[:2]
-    cy, cx = np.meshgrid(0.5 * (cells.rows[:-1] + cells.rows[1:]), 0.5 * (cells.cols[:-1] + cells.cols[1:]), indexing="ij")
-    rect = np.stack([x0 + cx * (x1 - x0) / ow - 0.5, y0 + cy * (y1 - y0) / oh - 0.5, np.ones_like(cx)], -1)
-    photo = rect @ np.linalg.inv(prepared.rectification.homography).T
-    photo = photo[..., :2] / photo[..., 2:]
-    out = []
-    for axis, p, n in ((1, pitch[1], size[0]), (0, pitch[0], size[1])):  # y: the weft pitch
-        t = (photo[..., axis] - (n - 1) / 2) / p - 0.5
-        out.append(np.angle(np.exp(2j * np.pi * t).mean()) / (2 * np.pi))
-    return np.array(out)
-
-
-def test_the_holes_choose_the_half_pitch_of_a_back_lit_plain_weave(monkeypatch):
-    """An independent back-lit plain weave (as the bench's 15_plain_backlit; 400 px, key light
-    from the top): its bright holes glow in the cell corners. The old half-pitch choice (the
-    corners' variance against the centres') put the cells' centres on the warp gaps (0.45-0.46
-    cell off along x, seeds 0-2); the holes choose the other half (0.04-0.05 off). Along y the
-    centre of mirror symmetry stays 0.16-0.17 cell up, where the key light's shading moves it,
-    whichever rule chooses the half."""
-    from weavecap.fit import target
-    from weavecap.fit.target import align_cells, box_pixels, repeat_cells
-    from weavecap.heightfield_photos import PhotoSpec, render_photo
-    from weavecap.photo import srgb_to_linear
-    from weavecap.prepare import prepare_photo
-
-    spec = PhotoSpec(name="plain_backlit", pattern=np.array([[1, 0], [0, 1]], np.uint8), warp_colour=(0.5, 0.3, 0.2),
-                     weft_colour=(0.2, 0.4, 0.6), pitch_px=(27.0, 28.0), width=(0.92, 0.88), gaps="backlit",
-                     light_deg=(-104.0, 63.0), jitter_position=0.0, size_px=(400, 400), jpeg_quality=90)
-    prepared = prepare_photo(srgb_to_linear(render_photo(spec, seed=1).astype(np.float32) / 255.0))
-    reg = prepared.regularized
-    cells = repeat_cells(prepared, reg.box)
-    assert cells.shape == (2, 2)
-    sharp = box_pixels(prepared.rectification.image, reg.box, reg.image.shape[:2])
-    new = _lattice_error(prepared, align_cells(reg.image, cells, sharp=sharp), spec.pitch_px, spec.size_px)
-    monkeypatch.setattr(target, "HOLE_MIN_CONCENTRATION", np.inf)  # no holes: the old rule
-    old = _lattice_error(prepared, align_cells(reg.image, cells), spec.pitch_px, spec.size_px)
-    assert abs(new[1]) < 0.1 and abs(new[0]) < 0.2, new
-    assert abs(old[1]) > 0.4, old

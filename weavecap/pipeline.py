@@ -22,7 +22,7 @@ from . import params as wparams
 from .errors import PhotoError
 from .fit.config import PRESETS, FitConfig, cell_px_for
 from .fit.fidelity import captioned, fidelity
-from .fit.target import align_cells, box_pixels, repeat_cells
+from .fit.target import align_cells, repeat_cells
 from .io import atomic_write_text
 
 REPORT_FORMAT = "weavecap.report/1"
@@ -174,8 +174,7 @@ def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), 
     prep = prepared.to_json()
     report["rectification"], report["grid"] = prep["rectification"], prep["grid"]
     cells = repeat_cells(prepared, prepared.regularized.box)
-    reg = prepared.regularized
-    cells = align_cells(reg.image, cells, sharp=box_pixels(prepared.rectification.image, reg.box, reg.image.shape[:2]))
+    cells = align_cells(prepared.regularized.image, cells)
     shape = cells.shape
     if options.pattern is not None and options.pattern.shape != shape:
         raise wparams.ParamsError(f"the given pattern is {options.pattern.shape[0]}x{options.pattern.shape[1]} but "

@@ -174,50 +174,6 @@ def _circular_peak(values: np.ndarray) -> float:
     return i + (0.5 * (a - d) / den if den < 0 else 0.0)
 
 
-def hole_phase(canvas: np.ndarray, cell_px: int) -> tuple[float, float, float]:
-    """Where the holes between yarns lie, model-free: (y, x, concentration), y and x in canvas
-    px within one cell, (0, 0) when the cell corners are on the holes.
-
-    Where a warp gap crosses a weft gap no yarn covers the fabric: a small hole at every cell
-    corner, the darkest spot under a front light, the brightest under a back light; a yarn
-    crossing (the cell's middle) is a broad dome. So the holes are the lattice of small blobs:
-    the determinant of the Hessian of √I at a sixteenth of a cell, kept where both curvatures
-    are positive (pits) or both negative (peaks), folded over every cell of ``canvas``; of the
-    two folded maps the one whose peak stands higher above its mean is taken, and its row and
-    column means peak at the holes (to a fraction of a pixel by a parabola). A light from one
-    side shades a yarn's two flanks unequally, which moves a centre of mirror symmetry
-    (:func:`mirror_phase`) by up to a fifth of a cell along the light (the independent photos'
-    wefts) but leaves a hole where it is. ``canvas`` (m*c, n*c, ...) holds whole cells of the
-    photo at ``cell_px`` = c px each (it wraps around, e.g. every whole repeat of a lattice).
-    The concentration (peak / mean of the taken 2-D map) is 1 on a flat canvas, 2.4–10.4 on
-    the real photos of ``../shared/realdata`` (tight weaves: no holes show), 8.9–55 on the
-    independent bench photos and 25–70 on the own renders (:func:`weavecap.fit.target.align_cells`
-    uses the holes from ``HOLE_MIN_CONCENTRATION`` on).
-    """
-    from scipy.ndimage import gaussian_filter
-
-    c = int(cell_px)
-    g = np.sqrt(np.clip(np.asarray(canvas, np.float64), 0.0, None))
-    g = g.mean(axis=2) if g.ndim == 3 else g
-    m, n = g.shape[0] // c, g.shape[1] // c
-    g = g[: m * c, : n * c]
-    s = c / 16
-    iyy = gaussian_filter(g, s, order=(2, 0), mode="wrap")
-    ixx = gaussian_filter(g, s, order=(0, 2), mode="wrap")
-    det = ixx * iyy - np.square(gaussian_filter(g, s, order=(1, 1), mode="wrap"))
-    best = None
-    for sign in (1.0, -1.0):  # pits, then peaks
-        blobs = np.where((det > 0) & (sign * ixx > 0), det, 0.0).reshape(m, c, n, c).mean(axis=(0, 2))
-        conc = float(blobs.max() / blobs.mean()) if blobs.mean() > 0 else 0.0
-        if best is None or conc > best[0]:
-            best = (conc, blobs)
-    conc, blobs = best
-    if conc == 0.0:
-        return 0.0, 0.0, 0.0
-    # a pixel's centre is at i + 0.5: the hole at the peak's centre, within [0, c)
-    return ((_circular_peak(blobs.mean(axis=1)) + 0.5) % c, (_circular_peak(blobs.mean(axis=0)) + 0.5) % c, conc)
-
-
 def mirror_phase(canvas: np.ndarray, shape: tuple[int, int]) -> tuple[float, float]:
     """Where the repeat's projections are mirror-symmetric, model-free: (y, x) in canvas px,
     each in [0, c/2), c the cell side; 0 when the cell borders (or the cell centres) are

@@ -16,12 +16,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..estimate.cells import CellGrid, cell_canvas, gap_phase, hole_phase, mirror_phase
+from ..estimate.cells import CellGrid, cell_canvas, gap_phase, mirror_phase
 from ..params import Fabric
 
 DRIFT_MAX_CELLS = 0.5  # a repeat's offset beyond this (cells) is a mismatch, not drift
 QUADRATIC_BLOCKS = 16  # from this many repeats on, the drift model adds quadratic terms
-HOLE_MIN_CONCENTRATION = 12.0  # below it no holes show: align_cells' half pitch falls back to the corner variance
 
 
 def repeat_cells(prepared, image_box: tuple[float, float, float, float]) -> CellGrid:
@@ -40,66 +39,33 @@ def shifted(cells: CellGrid, box) -> CellGrid:
     return CellGrid(rows=cells.rows + box[0], cols=cells.cols + box[1])
 
 
-def box_pixels(image: np.ndarray, box: tuple[float, float, float, float], shape: tuple[int, int]) -> np.ndarray:
-    """``image`` (the rectified photo, (H, W, 3)) resampled onto the pixels of preparation's
-    regularized image: the box (y0, x0, y1, x1) of rectified px stretched to ``shape`` (h, w)
-    as :func:`weavecap.prepare.regularize.regularize` does (bilinear), without its smoothing."""
-    import cv2
-
-    y0, x0, y1, x1 = box
-    h, w = shape
-    ay, ax = (y1 - y0) / h, (x1 - x0) / w
-    m = np.array([[ax, 0.0, x0 + 0.5 * ax - 0.5], [0.0, ay, y0 + 0.5 * ay - 0.5]])  # output px -> image px
-    return cv2.warpAffine(np.asarray(image, np.float32), m, (w, h), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
-                          borderMode=cv2.BORDER_REFLECT)
-
-
-def align_cells(image: np.ndarray, cells: CellGrid, sharp: np.ndarray | None = None) -> CellGrid:
+def align_cells(image: np.ndarray, cells: CellGrid) -> CellGrid:
     """Put the cell corners on the gaps between yarns (§5's cells are centred on yarn
     crossings): first onto a centre of mirror symmetry of the projections (sub-pixel,
     :func:`weavecap.estimate.cells.mirror_phase`: the gaps or the yarn centres), then, of the
-    four half-pitch shifts of that lattice, the one whose corners lie nearest the holes where a
-    warp gap crosses a weft gap (:func:`weavecap.estimate.cells.hole_phase`), or, where no
-    holes show, whose corners vary most and whose centres vary least.
+    four half-pitch shifts of that lattice, the one whose corners vary most and whose centres
+    vary least.
 
     The yarn boundaries of §4.4 are valleys of the integral projection — right under front
     light, where gaps are dark, but off under back light, where they glow: there the valley is
     wherever the yarn is darkest, half a pitch from the gap give or take the yarn's shading (a
     sixth of a cell on the fixtures' plain weave, and every estimate of the pre-estimate is
     then made on the wrong cells: the true fabric scored 19.6 dB against that canvas, 33.4 dB
-    registered). The corner-variance choice of the half was wrong on 12 of 36 axes of the
-    independent bench photos, dark gaps and back-lit alike (measured against their known
-    lattice: docs/capture.md); the holes (a dark pit under a front light, a bright dot under a
-    back light: a cell corner whatever the light) leave 6 more than a quarter cell off: the two
-    photos whose repeat preparation got wrong, the dark plain whose 2-px gaps do not show, and
-    two whose mirror centre is itself a quarter cell off, where neither half is near. The
-    own renders' lattices are unchanged. The sub-cell position stays the
-    mirror symmetry's even where a light from one side moves it by up to a fifth of a cell off
-    the crossings: the forward model's shading is not the photo's, and on the cells put on the
-    true crossings the pre-estimate of the independent twill 2/1 S fitted 10× worse (MSE
-    0.0176 against 0.00175 a fifth of a cell up, where the mirror symmetry is).
-
-    ``image`` (H, W, 3) linear RGB, ``cells`` a CellGrid in its pixels; ``sharp`` the same
-    pixels before smoothing (preparation's regularized image is blurred and, for large
-    repeats, rebuilt from 64 px a repeat, which rubs out holes a few pixels wide), used for
-    the holes.
+    registered). A corner window holds a gap and four yarn edges whatever the light; a centre
+    window sits on a smooth crossing. ``image`` (H, W, 3) linear RGB, ``cells`` a CellGrid in
+    its pixels.
     """
     c = 12
     win = max(1, c // 4)
-    pitch = np.diff(cells.rows).mean(), np.diff(cells.cols).mean()
     sy, sx = mirror_phase(cell_canvas(image, cells, c), cells.shape)
     sy, sx = (sy + c / 4) % (c / 2) - c / 4, (sx + c / 4) % (c / 2) - c / 4  # the centre nearest the corners
-    cells = CellGrid(rows=cells.rows + sy / c * pitch[0], cols=cells.cols + sx / c * pitch[1])
-    h = 24
-    lattice, _, _ = _whole_repeats(image.shape[:2], cells)
-    hy, hx, conc = hole_phase(cell_canvas(image if sharp is None else sharp, lattice, h), h)
-    if conc >= HOLE_MIN_CONCENTRATION:  # the half whose corners are nearest the holes, per axis
-        dy, dx = (0.5 if abs((hole / h) % 1.0 - 0.5) < 0.25 else 0.0 for hole in (hy, hx))
-        return CellGrid(rows=cells.rows + dy * pitch[0], cols=cells.cols + dx * pitch[1])
+    cells = CellGrid(rows=cells.rows + sy / c * np.diff(cells.rows).mean(),
+                     cols=cells.cols + sx / c * np.diff(cells.cols).mean())
     best, best_score = cells, -np.inf
     for dy in (0.0, 0.5):
         for dx in (0.0, 0.5):
-            moved = CellGrid(rows=cells.rows + dy * pitch[0], cols=cells.cols + dx * pitch[1])
+            moved = CellGrid(rows=cells.rows + dy * np.diff(cells.rows).mean(),
+                             cols=cells.cols + dx * np.diff(cells.cols).mean())
             grey = cell_canvas(image, moved, c).mean(axis=2)
             tiles = grey.reshape(moved.shape[0], c, moved.shape[1], c).transpose(0, 2, 1, 3)
             centre = tiles[:, :, c // 2 - win: c // 2 + win, c // 2 - win: c // 2 + win]
