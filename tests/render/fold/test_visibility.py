@@ -101,3 +101,25 @@ def test_the_neighbourhood_does_not_depend_on_how_long_the_faces_are():
         shares.append(Vis.lit_share(scene, nb, np.array([0.0, 0.0, 1.0]), desc.radius)[0, 0])
     assert shares[1] > 0.05
     np.testing.assert_allclose(shares[0], shares[1], rtol=0.08)
+
+
+def test_arrays_handed_to_drjit_are_aligned_so_their_kernels_do_not_vary():
+    import drjit as dr
+
+    rng = np.random.default_rng(3)
+    for n in (1, 7, 1001):
+        raw = rng.normal(size=(n, 3))
+        assert all(Vis.aligned(raw[:, k]).ctypes.data % Vis.ALIGN == 0 for k in range(3))
+        np.testing.assert_array_equal(Vis.aligned(raw), raw.astype(np.float32))
+    # the same computation on points of other counts and other malloc offsets: one kernel, read at align 64
+    dr.set_flag(dr.JitFlag.KernelHistory, True)
+    try:
+        dr.kernel_history()
+        for n in (1001, 1003, 517):
+            p = Vis.jit_vec3(rng.normal(size=(n, 3))[1:], mi.Point3f)  # a slice: its rows start off the boundary
+            dr.eval(dr.norm(p) * 2.0)
+        kernels = [e for e in dr.kernel_history() if e["type"] == dr.KernelType.JIT]
+    finally:
+        dr.set_flag(dr.JitFlag.KernelHistory, False)
+    assert len(kernels) == 3 and len({e["hash"] for e in kernels}) == 1
+    assert "align 1," not in kernels[0]["ir"].getvalue()

@@ -17,20 +17,22 @@ two halves of :data:`REF_SPP` / 2 samples with different seeds: their mean is th
 half their RMS difference the reference's own noise (an RMSE against it cannot go below that).
 *Equal time*: LocalPT (direct + local) at the largest spp that renders within the time of
 direct at :data:`SPP` + the fold term, both against the reference — a race the direct light's
-noise decides, the same in both. Both sides are timed warm (their kernels compiled): the fold
-term's second call, and LocalPT's seconds per spp measured just before at :data:`SPP` (so
-its spp fit the time it gets: timed cold or from the 4096-spp rate they did not). So also
-*the local light at equal time*: the reference's
+noise decides, the same in both. So also *the local light at equal time*: the reference's
 direct image plus the fold term, against it plus LocalPT's local light at the spp that renders
-in the fold term's time (the fold term is called once more just before it is timed: its first
-call after another scene's render compiles its kernels again). *Seen* meshes are the
+in the fold term's time. Both sides are timed by one rule (:func:`race`, :func:`steady_times`),
+on the same scene: after an untimed call of each (their kernels compiled), in rounds of one
+call of each in turn — our direct render at :data:`SPP`, the fold term, LocalPT's direct and
+local renders at :data:`SPP` — until every part's last two timings agree within
+:data:`AGREE` (at most :data:`ROUNDS` rounds, else their median); LocalPT's spp are those
+seconds per spp into our seconds, and its render at them is timed too (recorded beside ours).
+The rows keep every timing. *Seen* meshes are the *Seen* meshes are the
 fixture meshes of the shapes trained on (at the fixtures' own, coarser tessellation);
 *unseen*: the towel of ``../shared/meshes`` (without the head under it) and
 :func:`crumpled_sheet`, folds in random directions, made here.
 
 The frame (:func:`frame_time`), on the towel and the skirt: one 1280×720 direct render at
-:data:`SPP`, without and with the fold term, in one process; and the equal-time comparison
-again at that size (where the fold term's per-vertex cost is small against the frame's), against
+:data:`SPP`, without and with the fold term, in one process (as a user runs it, compiles and
+all: the frame ratio); and the equal-time comparison again at that size (the same rule) (where the fold term's per-vertex cost is small against the frame's), against
 a reference of :data:`FRAME_REF_SPP`.
 
 The default run keeps to minutes: five seen and two unseen meshes at 192×108 (``quick``: one
@@ -62,6 +64,8 @@ SEEN = {"sine_high": (0.0, 35.0), "horseshoe_narrow": (0.0, 30.0), "wave": (20.0
         "drape": (30.0, 30.0)}
 UNSEEN = {"towel": (0.0, 50.0), "crumpled": (20.0, 45.0)}
 QUICK = ("sine_high", "crumpled")
+AGREE = 0.10  # an equal-time race's timings are steady when two in a row agree within this share of their mean
+ROUNDS = 5  # timed rounds at most (then the median)
 
 
 def crumpled_sheet(size: float = 0.3, cells: int = 120, *, seed: int = 7):
@@ -122,29 +126,80 @@ def _localpt_scene(fabric, mesh, options, radius: float):
         modes.MODES.pop("fold-localpt", None)
 
 
-def _in_time(budget: float, scenes, seed: int, announce=lambda spp: None):
-    """The sum of ``scenes``' renders at the largest spp that fits in ``budget`` seconds (at
-    least 1): (image (H, W, 3) float64, spp, seconds taken). The seconds per spp are measured
-    just before, warm, by rendering them at :data:`SPP` after a pass that compiles their kernels
-    (the side it is compared with is timed warm; in the bench's order of renders a rate taken
-    with the compile in it gave LocalPT 9–16 spp where it renders ~60), and a last pass of fewer samples than
-    ``run.PASS_SPP`` is compiled before the timing too (a pass of another spp is another kernel:
-    crumpled sheet, 69 spp, 1.3 s cold against 0.4 s warm)."""
+def steady_times(parts: dict, *, agree: float = AGREE, rounds: int = ROUNDS, clock=time.perf_counter):
+    """Warm, steady timings of the callables ``parts`` ({label: fn()}), the same rule for each.
+
+    One untimed round compiles their kernels; then rounds of one call of each part in turn (so
+    every part sees the same load of the shared machine, which moved the same 1280×720 kernel
+    between 2.5 and 5 s within minutes), until each part's last two timings agree within
+    ``agree`` of their mean, at most ``rounds`` rounds. A part's seconds: the mean of its last
+    two timings where they agreed, else the median of all of them. Returns (seconds {label: s},
+    timings {label: [s, ...]}, last results {label: fn()})."""
+    out = {label: fn() for label, fn in parts.items()}
+    timings = {label: [] for label in parts}
+
+    def settled(ts):
+        return len(ts) >= 2 and abs(ts[-1] - ts[-2]) <= agree * (ts[-1] + ts[-2]) / 2
+
+    for _ in range(rounds):
+        for label, fn in parts.items():
+            t = clock()
+            out[label] = fn()
+            timings[label].append(clock() - t)
+        if all(settled(ts) for ts in timings.values()):
+            break
+    seconds = {label: (ts[-1] + ts[-2]) / 2 if settled(ts) else float(np.median(ts)) for label, ts in timings.items()}
+    return seconds, timings, out
+
+
+def _in_time(budget: float, scenes, seconds_per_spp: float, seed: int, announce=lambda spp: None):
+    """The sum of ``scenes``' renders at the largest spp that fits in ``budget`` seconds at
+    ``seconds_per_spp`` (their steady rate, :func:`steady_times`; at least 1 spp): (image
+    (H, W, 3) float64, spp, seconds taken). A last pass of fewer samples than ``run.PASS_SPP``
+    is another kernel: it is compiled before the render is timed (crumpled sheet, 69 spp, 1.3 s
+    cold against 0.4 s warm)."""
     from ..run import PASS_SPP, render_passes
 
-    for scene in scenes:  # compile first: a kernel compiled inside the timing would cost LocalPT samples
-        render_passes(scene, PASS_SPP, seed + 3000)
-    t = time.perf_counter()
-    for scene in scenes:
-        render_passes(scene, SPP, seed + 1000)
-    spp = max(1, int(budget / ((time.perf_counter() - t) / SPP)))
+    spp = max(1, int(budget / seconds_per_spp))
     announce(spp)
-    if spp % PASS_SPP:  # a pass of another spp is another kernel: compile it too, so the time taken is warm
+    if spp % PASS_SPP:
         for scene in scenes:
             render_passes(scene, spp % PASS_SPP, seed + 2000)
     t = time.perf_counter()
     image = sum(render_passes(scene, spp, seed).astype(np.float64) for scene in scenes)
     return image, spp, time.perf_counter() - t
+
+
+def race(scene, local_scene, mesh, seed: int, progress=lambda m: None, label: str = "") -> dict:
+    """Both equal-time races on one scene, timed by :func:`steady_times` in one set of rounds:
+    ours (direct at :data:`SPP` on ``scene``, the fold term) and LocalPT's two renders at
+    :data:`SPP` (its direct light on ``scene``, its local light on ``local_scene``), whose
+    seconds per spp set the spp LocalPT gets: in the time of direct + fold for the whole image,
+    in the fold term's time for the local light alone. Returns the images (ours: direct at SPP
+    and the fold term, seeds ``seed`` and 1; LocalPT's: direct + local, local alone, seeds
+    ``seed`` + 1, + 2), the spp, and every timing."""
+    from ..run import render_passes
+    from . import term
+
+    seconds, timings, out = steady_times({
+        "direct": lambda: render_passes(scene, SPP, seed),
+        "fold": lambda: term.fold_light(scene, mesh, seed=1)[0],
+        "localpt_direct": lambda: render_passes(scene, SPP, seed + 1000),
+        "localpt_local": lambda: render_passes(local_scene, SPP, seed + 1000)})
+    budget = seconds["direct"] + seconds["fold"]
+    eq, k, t_eq = _in_time(budget, (scene, local_scene), (seconds["localpt_direct"] + seconds["localpt_local"]) / SPP,
+                           seed + 1, lambda k: progress(f"fold bench: {label}LocalPT at equal time ({k} spp)"))
+    local, k_local, t_local = _in_time(
+        seconds["fold"], (local_scene,), seconds["localpt_local"] / SPP, seed + 2,
+        lambda k: progress(f"fold bench: {label}LocalPT's local light in the fold term's time ({k} spp)"))
+    return {"direct": out["direct"].astype(np.float64), "fold": out["fold"].astype(np.float64), "localpt": eq,
+            "localpt_local": local, "seconds": seconds, "timings": timings, "budget": budget, "spp": k,
+            "seconds_localpt": t_eq, "spp_local": k_local, "seconds_local": t_local}
+
+
+def _race_cells(r: dict) -> dict:
+    """The timings an equal-time row records: the steady seconds and every timing they came from."""
+    return {"steady_seconds": r["seconds"], "timings": r["timings"]}
 
 
 def _render(fabric, mesh, options):
@@ -178,7 +233,7 @@ def measure_mesh(name: str, path: Path, view, seen: bool, *, folder: Path, progr
     """Every image and error of one mesh (see the module docstring)."""
     from ... import params
     from ..mesh import load_mesh
-    from ..run import PASS_SPP, RenderOptions, prepare_render, render_passes
+    from ..run import RenderOptions, prepare_render, render_passes
     from . import term
     from .descriptors import cached_descriptors
 
@@ -205,21 +260,8 @@ def measure_mesh(name: str, path: Path, view, seen: bool, *, folder: Path, progr
     say(f"fold bench: {name}: PT")
     pt_scene = prepare_render(fabric, mesh, replace(base, mode="reference", max_depth=PT_DEPTH)).scene
     pt, t_pt = _timed(render_passes, pt_scene, REF_SPP, 1)
-    # equal time, both sides warm (kernels compiled): direct at SPP + the fold term, against
-    # LocalPT (direct + local) in the same time
-    render_passes(scene, PASS_SPP, 9)  # the fold term gave the garment attributes: compile the direct kernel again
-    # warm the fold term just before it is timed, as LocalPT's rate is measured just after its own warm-up: its
-    # first call after another scene's render compiles its kernels again (towel, 192x108: its pass 0.36 s, then 0.015)
-    term.fold_light(scene, mesh, seed=1)
-    fast, t_fast = _timed(render_passes, scene, SPP, 2)
-    _, t_fold_warm = _timed(term.fold_light, scene, mesh, seed=1)
-    budget = t_fast + t_fold_warm
-    eq, k, t_eq = _in_time(budget, (scene, local_scene), 3,
-                           lambda k: say(f"fold bench: {name}: LocalPT at equal time ({k} spp)"))
-    # the local light alone at equal time: the fold term against LocalPT's local light in the fold term's time
-    eq_local_only, k_local, t_eq_local = _in_time(
-        t_fold_warm, (local_scene,), 4,
-        lambda k: say(f"fold bench: {name}: LocalPT's local light in the fold term's time ({k} spp)"))
+    say(f"fold bench: {name}: equal time")
+    eq = race(scene, local_scene, mesh, 2, say, f"{name}: ")
     reference = direct + local
     mask = garment_mask(direct, pt)
     errors = {"direct": rmse(direct, reference, mask), "direct_fold": rmse(direct + fold, reference, mask),
@@ -234,12 +276,14 @@ def measure_mesh(name: str, path: Path, view, seen: bool, *, folder: Path, progr
         "reference_noise": rmse(half_a, half_b, mask) / 2,  # RMS noise of the LocalPT reference (mean of halves)
         "rmse_localpt": errors,
         "rmse_pt": {"direct": rmse(direct, pt, mask), "direct_fold": rmse(direct + fold, pt, mask)},
-        "equal_time": {"spp_fold": SPP, "seconds_fold": budget, "spp_localpt": k, "seconds_localpt": t_eq,
-                       "rmse_fold": rmse(fast + fold, reference, mask), "rmse_localpt": rmse(eq, reference, mask)},
-        "local_equal_time": {"seconds_fold": t_fold_warm, "spp_localpt": k_local, "seconds_localpt": t_eq_local,
-                             "rmse_fold": errors["direct_fold"], "rmse_localpt": rmse(direct + eq_local_only, reference,
-                                                                                       mask)},
-        "seconds": {"direct": t_direct, "fold": t_fold, "fold_warm": t_fold_warm, "direct_fast": t_fast,
+        "equal_time": {"spp_fold": SPP, "seconds_fold": eq["budget"], "spp_localpt": eq["spp"],
+                       "seconds_localpt": eq["seconds_localpt"], "rmse_fold": rmse(eq["direct"] + eq["fold"], reference, mask),
+                       "rmse_localpt": rmse(eq["localpt"], reference, mask), **_race_cells(eq)},
+        "local_equal_time": {"seconds_fold": eq["seconds"]["fold"], "spp_localpt": eq["spp_local"],
+                             "seconds_localpt": eq["seconds_local"], "rmse_fold": errors["direct_fold"],
+                             "rmse_localpt": rmse(direct + eq["localpt_local"], reference, mask)},
+        "seconds": {"direct": t_direct, "fold": t_fold, "fold_warm": eq["seconds"]["fold"],
+                    "direct_fast": eq["seconds"]["direct"],
                     "fold_k4": t_fold_k4, "localpt": t_local, "pt": t_pt,
                     **({"asg_fit": t_asg_fit, "fold_asg": t_fold_asg} if seen else {})},
         "fold_detail": info,
@@ -251,9 +295,10 @@ def measure_mesh(name: str, path: Path, view, seen: bool, *, folder: Path, progr
 
 
 def frame_time(name: str, path: Path, view, *, progress=None) -> dict:
-    """One 1280×720 direct frame at :data:`SPP`, without and with the fold term, in this
-    process; then, at that size, direct + fold against LocalPT at equal time, both against
-    direct + LocalPT's local light at :data:`FRAME_REF_SPP`."""
+    """One 1280×720 direct frame at :data:`SPP`, without and with the fold term, each
+    ``render_fabric`` in this process as a user runs it (compiles and all, after a 16-spp frame
+    of each); then, at that size, direct + fold against LocalPT at equal time (:func:`race`, warm
+    and steady), both against direct + LocalPT's local light at :data:`FRAME_REF_SPP`."""
     from ... import params
     from ..mesh import load_mesh
     from ..run import PASS_SPP, RenderOptions, prepare_render, render_passes
@@ -266,33 +311,31 @@ def frame_time(name: str, path: Path, view, *, progress=None) -> dict:
     say(f"fold bench: {name}: 1280×720 frame")
     for fold in ("off", "on"):  # compile every kernel first: passes of PASS_SPP, with and without the fold attributes
         _render(fabric, mesh, replace(options, spp=PASS_SPP, fold=fold))
-    off, t_off, info_off = _render(fabric, mesh, options)
-    on, t_on, info_on = _render(fabric, mesh, replace(options, fold="on"))  # the same seed: on - off is the term
+    _, _, info_off = _render(fabric, mesh, options)
+    _, _, info_on = _render(fabric, mesh, replace(options, fold="on"))
     fold = info_on["timings"]["fold"]
     scene = prepare_render(fabric, mesh, options).scene
     local_scene = _localpt_scene(fabric, mesh, options, cached_descriptors(mesh.positions, mesh.faces,
                                                                            normals=mesh.normals)[1].value)
     say(f"fold bench: {name}: 1280×720 reference ({FRAME_REF_SPP} spp)")
-    direct = render_passes(scene, FRAME_REF_SPP, 11)
-    local = render_passes(local_scene, FRAME_REF_SPP, 11)
-    reference = direct.astype(np.float64) + local
-    budget = info_on["timings"]["render"] + fold
-    eq, k, t_eq = _in_time(budget, (scene, local_scene), 12,
-                           lambda k: say(f"fold bench: {name}: 1280×720 LocalPT at equal time ({k} spp)"))
-    local_only, k_local, t_local_only = _in_time(
-        fold, (local_scene,), 13,
-        lambda k: say(f"fold bench: {name}: 1280×720 LocalPT's local light in the fold term's time ({k} spp)"))
+    direct = render_passes(scene, FRAME_REF_SPP, 11).astype(np.float64)
+    reference = direct + render_passes(local_scene, FRAME_REF_SPP, 11)
+    say(f"fold bench: {name}: 1280×720 equal time")
+    eq = race(scene, local_scene, mesh, 12, say, f"{name}: 1280×720 ")
     mask = garment_mask(direct)
     return {"mesh": name, "frame_seconds": info_off["timings"]["total"], "fold_seconds": fold,
             "ratio": fold / info_off["timings"]["total"], "render_seconds": info_off["timings"]["render"],
+            "warm_ratio": eq["seconds"]["fold"] / eq["seconds"]["direct"],
             "fold_detail": info_on["fold_detail"],
-            "equal_time": {"spp_fold": SPP, "seconds_fold": budget, "spp_localpt": k, "seconds_localpt": t_eq,
-                           "reference_spp": FRAME_REF_SPP, "rmse_fold": rmse(on, reference, mask),
-                           "rmse_localpt": rmse(eq, reference, mask)},
-            "local_equal_time": {"seconds_fold": fold, "spp_localpt": k_local, "seconds_localpt": t_local_only,
-                                 "rmse_fold": rmse(direct + (on - off), reference, mask),
-                                 "rmse_localpt": rmse(direct + local_only, reference, mask),
-                                 "rmse_direct": rmse(direct.astype(np.float64), reference, mask)}}
+            "equal_time": {"spp_fold": SPP, "seconds_fold": eq["budget"], "spp_localpt": eq["spp"],
+                           "seconds_localpt": eq["seconds_localpt"], "reference_spp": FRAME_REF_SPP,
+                           "rmse_fold": rmse(eq["direct"] + eq["fold"], reference, mask),
+                           "rmse_localpt": rmse(eq["localpt"], reference, mask), **_race_cells(eq)},
+            "local_equal_time": {"seconds_fold": eq["seconds"]["fold"], "spp_localpt": eq["spp_local"],
+                                 "seconds_localpt": eq["seconds_local"],
+                                 "rmse_fold": rmse(direct + eq["fold"], reference, mask),
+                                 "rmse_localpt": rmse(direct + eq["localpt_local"], reference, mask),
+                                 "rmse_direct": rmse(direct, reference, mask)}}
 
 
 def run(quick: bool = False, progress=None, folder: Path | None = None) -> dict:
@@ -328,6 +371,7 @@ def summary(result: dict) -> dict:
         "seen_relative": mean(lambda r: r["rmse_localpt"]["direct_fold"] / r["local_rms"], True),
         "unseen_relative": mean(lambda r: r["rmse_localpt"]["direct_fold"] / r["local_rms"], False),
         "frame_ratio": {f["mesh"]: f["ratio"] for f in result["frames"]},
+        "frame_ratio_warm": {f["mesh"]: f["warm_ratio"] for f in result["frames"]},
         "beats_localpt_equal_time_1280x720": {f["mesh"]: f["equal_time"]["rmse_fold"] < f["equal_time"]["rmse_localpt"]
                                               for f in result["frames"]},
         "beats_localpt_local_light_equal_time": {
@@ -341,7 +385,7 @@ def table(result: dict) -> str:
     rows = result["meshes"]
     s = summary(result)
     lines = ["| mesh | seen | r (mm) | local light RMS | its noise | RMSE vs LocalPT: direct | direct + fold | gain | "
-             "RMSE vs PT: direct | direct + fold | equal time: fold (spp) | LocalPT (spp) | local light at equal time: "
+             "RMSE vs PT: direct | direct + fold | equal time: fold (spp, s) | LocalPT (spp, s) | local light at equal time: "
              "fold term (s) | LocalPT (spp) |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
@@ -349,8 +393,7 @@ def table(result: dict) -> str:
         lines.append(f"| {r['mesh']} | {'yes' if r['seen'] else 'no'} | {r['radius_m'] * 1000:.0f} | "
                      f"{r['local_rms']:.5f} | {r['reference_noise']:.5f} | {e['direct']:.5f} | {e['direct_fold']:.5f} | "
                      f"{e['direct'] / max(e['direct_fold'], 1e-12):.2f}× | {p['direct']:.5f} | {p['direct_fold']:.5f} | "
-                     f"{q['rmse_fold']:.5f} ({q['spp_fold']}) | {q['rmse_localpt']:.5f} ({q['spp_localpt']}) | "
-                     + _local_cells(r["local_equal_time"]) + " |")
+                     + _equal_cells(q) + " | " + _local_cells(r["local_equal_time"]) + " |")
     lines += ["", "Table 3 form (architecture):", "",
               "| Architecture | Representation | Seen RMSE | Unseen RMSE | Time (s) | Params |", "|---|---|---|---|---|---|"]
     times = [r["seconds"]["fold"] for r in rows]
@@ -381,14 +424,19 @@ def table(result: dict) -> str:
             if got is not None:
                 lines.append(f"| {label} | {config} | {'Seen' if seen else 'Unseen'} | {got[0]:.5f} | {got[1]:.2f} |")
     lines += ["", f"| {FRAME_SIZE[0]}×{FRAME_SIZE[1]} frame | direct, {SPP} spp (s) | fold term (s) | ratio | RMSE vs LocalPT ({FRAME_REF_SPP} "
-                  "spp): direct | equal time: direct + fold (spp) | LocalPT (spp) | local light at equal time: "
+                  "spp): direct | equal time: direct + fold (spp, s) | LocalPT (spp, s) | local light at equal time: "
                   "fold term (s) | LocalPT (spp) |", "|---|---|---|---|---|---|---|---|---|"]
     for f in result["frames"]:
         q, e = f["equal_time"], f["local_equal_time"]
         lines.append(f"| {f['mesh']} | {f['frame_seconds']:.1f} | {f['fold_seconds']:.2f} | {f['ratio'] * 100:.0f} % | "
-                     f"{e['rmse_direct']:.5f} | {q['rmse_fold']:.5f} ({q['spp_fold']}) | {q['rmse_localpt']:.5f} "
-                     f"({q['spp_localpt']}) | {_local_cells(e)} |")
+                     f"{e['rmse_direct']:.5f} | {_equal_cells(q)} | {_local_cells(e)} |")
     return "\n".join(lines)
+
+
+def _equal_cells(q: dict) -> str:
+    """Two table cells: each side's RMSE at equal time (its spp, the seconds it took)."""
+    return (f"{q['rmse_fold']:.5f} ({q['spp_fold']}, {q['seconds_fold']:.2f} s) | "
+            f"{q['rmse_localpt']:.5f} ({q['spp_localpt']}, {q['seconds_localpt']:.2f} s)")
 
 
 def _local_cells(q: dict) -> str:

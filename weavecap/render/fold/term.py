@@ -36,8 +36,8 @@ import numpy as np
 from ...backend import mitsuba
 from . import blidf as B
 from .descriptors import cached_descriptors
-from .visibility import (SIDES, albedo, asg_value, fibonacci_sphere, fit_asg, lit_share, neighbourhood_albedo,
-                         neighbourhood_samples)
+from .visibility import (SIDES, albedo, aligned, asg_value, fibonacci_sphere, fit_asg, lit_share, jit_vec3,
+                         neighbourhood_albedo, neighbourhood_samples)
 
 mi = mitsuba()
 import drjit as dr  # noqa: E402  (after the backend chose libLLVM)
@@ -104,7 +104,7 @@ def scene_lights(scene: "mi.Scene", points: np.ndarray, *, sky_directions: int =
     lights, notes = [], []
     P = len(points)
     it = mi.Interaction3f()
-    it.p = mi.Point3f(*np.ascontiguousarray(points.T, np.float32))
+    it.p = jit_vec3(points, mi.Point3f)
     it.t = mi.Float(0.0)
     env = scene.environment()
     for emitter in scene.emitters():
@@ -119,7 +119,7 @@ def scene_lights(scene: "mi.Scene", points: np.ndarray, *, sky_directions: int =
     if env is not None:
         dirs = fibonacci_sphere(sky_directions)
         si = dr.zeros(mi.SurfaceInteraction3f, sky_directions)
-        si.wi = mi.Vector3f(*np.ascontiguousarray(-dirs.T, np.float32))
+        si.wi = jit_vec3(-dirs, mi.Vector3f)
         radiance = env.eval(si)
         rgb = np.stack([np.broadcast_to(np.asarray(radiance[k]), (sky_directions,)) for k in range(3)], 1)
         for q in range(sky_directions):
@@ -289,7 +289,7 @@ def mesh_asg(scene, garment, vertices, faces, desc, *, directions: int = 32, nei
 
 
 def _set_attribute(shape, name: str, values: np.ndarray) -> None:
-    flat = mi.Float(np.ascontiguousarray(values, np.float32).ravel())
+    flat = mi.Float(aligned(np.ravel(values)))
     if shape.has_attribute(name):
         params = mi.traverse(shape)
         params[name] = flat
@@ -341,7 +341,8 @@ def fold_image(scene, garment, G: np.ndarray, *, spp: int = PASS_SPP, seed: int 
 
 
 def fold_light(scene, mesh, *, seed: int = 0, neighbours: int = NEIGHBOURS, asg: dict | None = None,
-               model: B.BLIDF | None = None, spacing: float = SPACING) -> tuple[np.ndarray, dict]:
+               model: B.BLIDF | None = None, spacing: float = SPACING,
+               pass_spp: int = PASS_SPP) -> tuple[np.ndarray, dict]:
     """The fold term's image (H, W, 3) for ``mesh`` (a RenderMesh) in ``scene`` (``weavecap
     render``'s, garment named ``"garment"``), and what was modelled."""
     t0 = time.perf_counter()
@@ -352,14 +353,14 @@ def fold_light(scene, mesh, *, seed: int = 0, neighbours: int = NEIGHBOURS, asg:
     G, facts = vertex_gain(scene, garment, mesh.positions, mesh.faces, desc, model, seed=seed, neighbours=neighbours,
                            asg=asg, spacing=spacing)
     t2 = time.perf_counter()
-    fold = fold_image(scene, garment, G, seed=seed)
+    fold = fold_image(scene, garment, G, spp=pass_spp, seed=seed)
     t3 = time.perf_counter()
     info = {
         "radius_m": radius.value, "radius_rule": radius.how,
         "vertices": {"computed": facts["vertices"], "sampled": facts["sampled"], "of": len(mesh.positions),
                      "valleys": {"front": int(desc.folded[:, 0].sum()), "back": int(desc.folded[:, 1].sum())}},
         "lights": facts["lights"], "sky_directions": facts["sky_directions"], "neighbours": facts["neighbours"],
-        "spacing_m": facts["spacing_m"], "visibility": facts["visibility"], "pass_spp": PASS_SPP, "weights_parameters": model.parameters,
+        "spacing_m": facts["spacing_m"], "visibility": facts["visibility"], "pass_spp": pass_spp, "weights_parameters": model.parameters,
         "descriptors_cached": cached, "fold_mean": float(fold.mean()), "notes": facts["notes"],
         "timings": {"descriptors": t1 - t0, "vertices": t2 - t1, "pass": t3 - t2},
     }

@@ -162,9 +162,9 @@ def albedo_at(scene, points: np.ndarray, normals: np.ndarray, offset: float) -> 
     """(P, 3): the albedo the garment shows at surface points seen along their normals (the
     surface model's ``ambient`` attribute, else the diffuse reflectance)."""
     from .localpt import mi
-    from .visibility import _albedo_at, _vec3
+    from .visibility import _albedo_at, jit_vec3
 
-    ray = mi.Ray3f(_vec3(points + offset * normals, mi.Point3f), _vec3(-normals, mi.Vector3f))
+    ray = mi.Ray3f(jit_vec3(points + offset * normals, mi.Point3f), jit_vec3(-normals, mi.Vector3f))
     return _albedo_at(scene.ray_intersect(ray))
 
 
