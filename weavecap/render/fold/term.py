@@ -18,7 +18,7 @@ All of it on a subset of the vertices :data:`SPACING` × r apart, interpolated t
 (:func:`vertex_gain`): the fold light varies over r, and the cost follows the garment's area
 over r², not its tessellation.
 
-Then one pass of ``pass_spp`` samples a pixel (the scene's own camera) interpolates G over the
+Then one pass of :data:`PASS_SPP` samples a pixel (the scene's own camera) interpolates G over the
 triangles, takes the side the camera sees, and multiplies by the albedo the surface model
 shows there (its ``ambient`` attribute: the yarns' colours, occlusion and gaps) — so the fold
 light carries the weave's texture while being computed per vertex; no Python call per pixel.
@@ -341,8 +341,7 @@ def fold_image(scene, garment, G: np.ndarray, *, spp: int = PASS_SPP, seed: int 
 
 
 def fold_light(scene, mesh, *, seed: int = 0, neighbours: int = NEIGHBOURS, asg: dict | None = None,
-               model: B.BLIDF | None = None, spacing: float = SPACING,
-               pass_spp: int = PASS_SPP) -> tuple[np.ndarray, dict]:
+               model: B.BLIDF | None = None, spacing: float = SPACING) -> tuple[np.ndarray, dict]:
     """The fold term's image (H, W, 3) for ``mesh`` (a RenderMesh) in ``scene`` (``weavecap
     render``'s, garment named ``"garment"``), and what was modelled."""
     t0 = time.perf_counter()
@@ -353,14 +352,14 @@ def fold_light(scene, mesh, *, seed: int = 0, neighbours: int = NEIGHBOURS, asg:
     G, facts = vertex_gain(scene, garment, mesh.positions, mesh.faces, desc, model, seed=seed, neighbours=neighbours,
                            asg=asg, spacing=spacing)
     t2 = time.perf_counter()
-    fold = fold_image(scene, garment, G, spp=pass_spp, seed=seed)
+    fold = fold_image(scene, garment, G, seed=seed)
     t3 = time.perf_counter()
     info = {
         "radius_m": radius.value, "radius_rule": radius.how,
         "vertices": {"computed": facts["vertices"], "sampled": facts["sampled"], "of": len(mesh.positions),
                      "valleys": {"front": int(desc.folded[:, 0].sum()), "back": int(desc.folded[:, 1].sum())}},
         "lights": facts["lights"], "sky_directions": facts["sky_directions"], "neighbours": facts["neighbours"],
-        "spacing_m": facts["spacing_m"], "visibility": facts["visibility"], "pass_spp": pass_spp, "weights_parameters": model.parameters,
+        "spacing_m": facts["spacing_m"], "visibility": facts["visibility"], "pass_spp": PASS_SPP, "weights_parameters": model.parameters,
         "descriptors_cached": cached, "fold_mean": float(fold.mean()), "notes": facts["notes"],
         "timings": {"descriptors": t1 - t0, "vertices": t2 - t1, "pass": t3 - t2},
     }
