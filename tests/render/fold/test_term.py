@@ -186,3 +186,25 @@ def test_the_term_on_a_vertex_subset_matches_every_vertexs(fabric, tmp_path):
     diff = np.sqrt(np.mean((sub - full)[mask] ** 2)) / np.sqrt(np.mean(full[mask] ** 2))
     assert 0.95 < ratio < 1.05, ratio
     assert diff < 0.25, diff
+
+
+def test_a_meshs_layout_is_computed_once_and_a_changed_mesh_gets_its_own(monkeypatch):
+    from .shapes import heightfield
+
+    v, f = heightfield(lambda x, y: 0.05 * np.sin(4 * x), size=1.0, n=41)
+    n = np.tile([0.0, 0.0, 1.0], (len(v), 1))
+    calls = []
+    real = term.vertex_subset
+    monkeypatch.setattr(term, "vertex_subset", lambda *a: calls.append(1) or real(*a))
+    monkeypatch.setattr(term, "_LAYOUTS", type(term._LAYOUTS)())
+    first = term.layout(v, f, n, 0.1)
+    assert term.layout(v.copy(), f.copy(), n.copy(), 0.1) is first and len(calls) == 1  # by content, not identity
+    np.testing.assert_array_equal(first.subset, real(v, n, 0.1))
+    moved = v + [0.0, 0.0, 0.01 * np.cos(3 * v[0, 0])]
+    moved[5, 2] += 0.02  # one vertex moved: another mesh
+    assert term.layout(moved, f, n, 0.1) is not first and len(calls) == 2
+    assert term.layout(v, f, n, 0.2) is not first  # another spacing
+    for k in range(term.LAYOUTS):  # the oldest layouts leave once LAYOUTS others came after them
+        term.layout(v + [k + 1.0, 0, 0], f, n, 0.1)
+    assert len(term._LAYOUTS) == term.LAYOUTS
+    assert term.layout(v, f, n, 0.1) is not first

@@ -71,6 +71,33 @@ def test_lit_share_in_a_groove_is_the_view_factor_times_the_walls_cosine():
     np.testing.assert_allclose(share, np.array(expected) * np.cos(np.pi / 4), rtol=0.05)
 
 
+def test_both_sides_at_once_sample_each_side_as_its_own_call():
+    # a pleat-like sine sheet: both sides find neighbours; one query for both gives each side exactly what its
+    # own call gives at the same seed, and the back's rays are the front's mirrored (cosine about -n)
+    v, f = heightfield(lambda x, y: 0.3 * np.sin(6 * x), n=31)
+    desc = compute_descriptors(v, f, radius=0.4)
+    scene, garment = scene_with(v, f, desc)
+    at = np.arange(0, len(v), 7)
+    front, back = Vis.both_sides_samples(scene, garment, v, f, desc, 48, seed=3, at=at)
+    for side, got in enumerate((front, back)):
+        alone = Vis.neighbourhood_samples(scene, garment, v, f, desc, side, 48, seed=3, at=at)
+        np.testing.assert_array_equal(got.found, alone.found)
+        np.testing.assert_array_equal(got.points, alone.points)
+        np.testing.assert_array_equal(got.albedo, alone.albedo)
+        assert 0.05 < got.found.mean() < 0.6
+        found_normals = got.normals[got.found]
+        np.testing.assert_allclose(np.linalg.norm(found_normals, axis=1), 1.0, atol=1e-5)
+    # crests on one side are valleys on the other: where the front finds most, the back finds least
+    crest = v[at, 2] > 0.24
+    assert front.found[~crest].mean() > front.found[crest].mean() and back.found[crest].mean() > back.found[~crest].mean()
+    d = np.random.default_rng(0).normal(size=(100, 3))
+    n = np.random.default_rng(1).normal(size=(100, 3))
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    m = Vis.mirrored(d, n)
+    np.testing.assert_allclose(np.einsum("kj,kj->k", m, n), -np.einsum("kj,kj->k", d, n), atol=1e-12)
+    np.testing.assert_allclose(np.linalg.norm(m, axis=1), np.linalg.norm(d, axis=1))
+
+
 def test_asg_fit_recovers_a_lobe():
     rng = np.random.default_rng(0)
     dirs = Vis.fibonacci_sphere(64)

@@ -29,15 +29,16 @@ A flat mesh, or one whose sides have no valley, gets no fold term at all (``has_
 from __future__ import annotations
 
 import time
+from collections import OrderedDict
 from dataclasses import dataclass
 
 import numpy as np
 
 from ...backend import mitsuba
 from . import blidf as B
-from .descriptors import cached_descriptors
-from .visibility import (SIDES, albedo, aligned, asg_value, fibonacci_sphere, fit_asg, lit_share, jit_vec3,
-                         neighbourhood_albedo, neighbourhood_samples)
+from .descriptors import cached_descriptors, mesh_key
+from .visibility import (SIDES, Neighbours, albedo, aligned, asg_value, both_sides_samples, fibonacci_sphere, fit_asg,
+                         jit_vec3, lit_share, neighbourhood_albedo, neighbourhood_samples)
 
 mi = mitsuba()
 import drjit as dr  # noqa: E402  (after the backend chose libLLVM)
@@ -54,6 +55,7 @@ ATTRIBUTES = ("vertex_fold_front", "vertex_fold_back")
 SPACING = 0.35  # the term is computed on vertices this × r apart, interpolated to the rest (vertex_gain says why)
 NEAREST = 16  # subset vertices an interpolated vertex may draw on (those within 2 spacing: ~12 on a surface)
 CHUNK = 200_000  # rows of (light, vertex) the BLIDF evaluates at a time
+LAYOUTS = 4  # meshes whose layout (vertex subset, interpolation) is kept in memory (:func:`layout`)
 
 
 @dataclass(frozen=True)
@@ -182,6 +184,35 @@ def interpolation(vertices: np.ndarray, normals: np.ndarray, at: np.ndarray, spa
     return csr_matrix(m.multiply(1.0 / np.maximum(np.asarray(m.sum(axis=1)), 1e-300)))
 
 
+@dataclass(frozen=True)
+class Layout:
+    """Where a mesh's fold term is computed and how it spreads to every vertex: the subset
+    (A,) of :func:`vertex_subset` and the (V, A) :func:`interpolation` from it."""
+
+    subset: np.ndarray
+    spread: object  # scipy.sparse.csr_matrix (V, A)
+
+
+_LAYOUTS: "OrderedDict[str, Layout]" = OrderedDict()
+
+
+def layout(vertices: np.ndarray, faces: np.ndarray, normals: np.ndarray, spacing: float) -> Layout:
+    """The :class:`Layout` of a mesh at ``spacing`` (scene units), kept for the last
+    :data:`LAYOUTS` meshes (keyed by their content, :func:`.descriptors.mesh_key`): geometry
+    only, as the descriptors are, so the frames and lights of one garment compute it once
+    (crumpled sheet, 14,641 vertices: 0.09 s a call)."""
+    key = mesh_key(vertices, faces, normals, spacing=float(spacing))
+    if key in _LAYOUTS:
+        _LAYOUTS.move_to_end(key)
+        return _LAYOUTS[key]
+    subset = vertex_subset(vertices, normals, spacing)
+    made = Layout(subset=subset, spread=interpolation(vertices, normals, subset, spacing))
+    _LAYOUTS[key] = made
+    while len(_LAYOUTS) > LAYOUTS:
+        _LAYOUTS.popitem(last=False)
+    return made
+
+
 def vertex_gain(scene, garment, vertices, faces, desc, model: B.BLIDF, *, neighbours: int = NEIGHBOURS,
                 sky_directions: int = SKY_DIRECTIONS, seed: int = 0, asg: dict | None = None,
                 spacing: float = SPACING) -> tuple[np.ndarray, dict]:
@@ -213,11 +244,11 @@ def vertex_gain(scene, garment, vertices, faces, desc, model: B.BLIDF, *, neighb
     V = len(vertices)
     G = np.zeros((2, V, 3))
     step = spacing * desc.radius
-    subset = vertex_subset(vertices, desc.normals, step)
+    plan = layout(vertices, faces, desc.normals, step)
+    subset = plan.subset
     facts = {"lights": 0, "sky_directions": 0, "vertices": 0, "sampled": int(len(subset)), "spacing_m": step,
              "neighbours": neighbours, "visibility": "asg" if asg is not None else "sampled", "notes": []}
-    nb = {side: neighbourhood_samples(scene, garment, vertices, faces, desc, side, neighbours, seed=seed + side,
-                                      at=subset) for side in (0, 1)}
+    nb = dict(enumerate(both_sides_samples(scene, garment, vertices, faces, desc, neighbours, seed=seed, at=subset)))
     found = np.flatnonzero(nb[0].found.any(axis=1) | nb[1].found.any(axis=1))
     at = subset[found]
     facts["vertices"] = int(len(at))
@@ -237,10 +268,10 @@ def vertex_gain(scene, garment, vertices, faces, desc, model: B.BLIDF, *, neighb
     to_light = np.stack([l.to_light for l in lights])  # (L, A, 3)
     irradiance = np.stack([l.irradiance for l in lights])
     average = smoothing(points, SMOOTH * desc.radius)
-    share = {}
-    for side in (0, 1):
-        raw = lit_share(scene, nb[side], to_light, desc.radius)  # (L, A, 2)
-        share[side] = (average @ raw.transpose(1, 0, 2).reshape(A, 2 * L)).reshape(A, L, 2).transpose(1, 0, 2)
+    raw = lit_share(scene, Neighbours.concat([nb[0], nb[1]]), np.concatenate([to_light, to_light], axis=1),
+                    desc.radius)  # (L, 2A, 2): both sides' shadow rays in one query
+    share = {side: (average @ raw[:, side * A:(side + 1) * A].transpose(1, 0, 2).reshape(A, 2 * L))
+             .reshape(A, L, 2).transpose(1, 0, 2) for side in (0, 1)}
     if asg is not None:  # the sides' own facing shares from the lobes, the rest sampled
         for side in (0, 1):
             normal = SIDES[side] * desc.normals[at].astype(np.float64)
@@ -259,11 +290,10 @@ def vertex_gain(scene, garment, vertices, faces, desc, model: B.BLIDF, *, neighb
             light = irradiance.reshape(L * A, 3)[part] * np.einsum("nck,nk->nc", gains, vbar[part])
             for c in range(3):
                 Gs[side, :, c] += np.bincount(vertex, light[:, c], minlength=A)
-    spread = interpolation(vertices, desc.normals, subset, step)  # the subset's uncomputed vertices carry their 0
-    for side in (0, 1):
+    for side in (0, 1):  # the subset's uncomputed vertices carry their 0
         full = np.zeros((len(subset), 3))
         full[found] = Gs[side]
-        G[side] = spread @ full
+        G[side] = plan.spread @ full
     return G, facts
 
 
