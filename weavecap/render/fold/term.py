@@ -235,11 +235,13 @@ def vertex_gain(scene, garment, vertices, faces, desc, model: B.BLIDF, *, neighb
     samples meet the garment within r on either side is computed, on
     both sides (a crest sees nothing of its own but gets the light of the valley behind it
     through the fabric: :data:`.blidf.SHARES`); the others stay 0. V̄ is the lit share of
-    ``neighbours`` view samples a side, averaged over the computed vertices within SMOOTH r, or
-    for the side's own facing share with ``asg`` ({side: (V, lobes, 6)}, fitted by
-    :func:`.visibility.fit_asg` for this mesh) the ASG lobes' value. All lights at once: one
-    shadow-ray query a side and one evaluation of the BLIDF a side (:data:`CHUNK` rows at a
-    time). Returns (G, facts for the output).
+    ``neighbours`` view samples a side (both sides' from one ray query,
+    :func:`.visibility.both_sides_samples`), averaged over the computed vertices within SMOOTH r,
+    or for the side's own facing share with ``asg`` ({side: (V, lobes, 6)}, fitted by
+    :func:`.visibility.fit_asg` for this mesh) the ASG lobes' value. All lights and both sides
+    at once: one shadow-ray query, and one evaluation of the BLIDF a side (:data:`CHUNK` rows at
+    a time). The subset and its interpolation are the mesh's :func:`layout`, computed once for
+    it. Returns (G, facts for the output).
     """
     V = len(vertices)
     G = np.zeros((2, V, 3))
