@@ -425,7 +425,7 @@ def test_aligned_cells_of_independent_photos_are_centred_on_their_crossings(tmp_
     makes them), against the generator's lattice. The twill 3/1 Z's corner variance picks the
     wrong half on both axes (cell centres +0.31 / −0.43 cell off the crossings); its votes there
     spell no named weave, the shift's whose do is taken (−0.19 / +0.07). The twill 2/2 Z's
-    corner-variance pick is right (−0.11 / −0.06), its votes spell the twill, and it stays
+    corner-variance pick is right (−0.11 / −0.05), its votes spell a named weave, and it stays
     bit-identical."""
     from weavecap import fit_bench
     from weavecap.estimate.cells import cell_canvas
