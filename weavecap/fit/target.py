@@ -99,8 +99,10 @@ def align_cells(image: np.ndarray, cells: CellGrid) -> CellGrid:
     independent bench photos (:mod:`weavecap.heightfield_photos`, against the generator's
     lattice, ``scripts/measure_phase.py``); half a cell off, the votes read yarn centres as
     borders and rarely spell a weave: with the votes' veto 6 of 36, the own renders 2 of 16
-    with their lattices bit-identical. ``image`` (H, W, 3) linear RGB, ``cells`` a CellGrid in
-    its pixels.
+    with their lattices bit-identical (the real easy photos' too). Fitted at normal, the four
+    whose lattice moved kept their pattern's exactness (04 twill 3/1 Z and 10 satin 8/5 exact,
+    05 twill 2/2 S and 11 basket still fitted as twills; docs/capture.md, session 6).
+    ``image`` (H, W, 3) linear RGB, ``cells`` a CellGrid in its pixels; returns a CellGrid.
     """
     from ..estimate.orientation import cell_votes, vote_pattern
     from ..estimate.weave_name import spells_named_weave
