@@ -101,7 +101,7 @@ def align_cells(image: np.ndarray, cells: CellGrid) -> CellGrid:
     borders and rarely spell a weave: with the votes' veto 6 of 36, the own renders 2 of 16
     with their lattices bit-identical (the real easy photos' too). Fitted at normal, the four
     whose lattice moved kept their pattern's exactness (04 twill 3/1 Z and 10 satin 8/5 exact,
-    05 twill 2/2 S and 11 basket still fitted as twills; docs/capture.md, session 6).
+    05 twill 2/2 S and 11 basket still fitted as twills; docs/capture.md, session 7).
     ``image`` (H, W, 3) linear RGB, ``cells`` a CellGrid in its pixels; returns a CellGrid.
     """
     from ..estimate.orientation import cell_votes, vote_pattern
