@@ -61,26 +61,3 @@ def test_independent_rows_are_scored_on_pattern_and_fidelity():
     ex = fit_bench.exposure_table([{"fabric": "f", "preset": "draft", "fitted": 4, "delta_e_max": {"warp": 1.23,
                                     "weft": 2.5}, "gain": {"as shot": [1.0, 1.0, 1.0]}}])
     assert "| f | draft | 4/4 | 1.2 | 2.5 |" in ex
-
-
-def test_crossing_phase_of_cells_on_an_own_render():
-    """Cells of a head-on own render (no rectification: identity homography, box at 0) centred
-    on its yarn crossings are 0 off; moved by half a cell down they are half a cell off along
-    the rows, an error; a fifth of a cell across is not."""
-    from types import SimpleNamespace
-
-    from weavecap.estimate.cells import CellGrid
-    from weavecap.model.scene import View
-
-    truth = params.load(FIXTURES / "twill_2_1.json")
-    view = View(tiles=(4, 4), size=240)  # 12 wefts × 12 warps: 20 px a cell
-    photo = fit_bench.BenchPhoto(path=Path("x.jpg"), truth=truth, family="twill", rotate_deg=0.0, made_by=view)
-    prepared = SimpleNamespace(regularized=SimpleNamespace(box=(0.0, 0.0, 240.0, 240.0)),
-                               rectification=SimpleNamespace(homography=np.eye(3)))
-    cells = CellGrid.regular(truth.shape, 20.0, origin=(40.0, 60.0))
-    np.testing.assert_allclose(fit_bench.crossing_phase(photo, prepared, cells), 0.0, atol=1e-9)
-    moved = CellGrid.regular(truth.shape, 20.0, origin=(50.0, 64.0))
-    phase = fit_bench.crossing_phase(photo, prepared, moved)
-    np.testing.assert_allclose(np.abs(phase), [0.5, 0.2], atol=1e-9)
-    assert fit_bench.lattice_error(phase).tolist() == [True, False]
-    assert fit_bench.lattice_error([0.24, -0.26]).tolist() == [False, True]

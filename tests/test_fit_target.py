@@ -11,7 +11,6 @@ import pytest
 from weavecap import params
 from weavecap.estimate.cells import CellGrid
 from weavecap.estimate.forward import RepeatRenderer
-from weavecap.estimate.weave_name import spells_named_weave
 from weavecap.fit.config import PRESETS
 from weavecap.fit.target import correlation_shift, lattice_drift, mean_repeat, register_cells
 from weavecap.model.render import as_photographed, blurred_mse, mse_and_gradients, white_level
@@ -201,7 +200,7 @@ def test_the_end_stage_fits_the_best_named_weave_even_when_it_looked_worse_unfit
     monkeypatch.setattr(rounds, "_fit_round", fake_round)
     monkeypatch.setattr(rounds, "photo_votes", lambda prepared, cells, fabric, rig, c: np.zeros(fabric.shape))
     custom = np.array([[0, 1, 1, 1], [0, 0, 0, 1], [1, 1, 0, 0], [0, 1, 1, 0]], dtype=np.uint8)
-    assert not spells_named_weave(custom)
+    assert not rounds.is_named_weave(custom)
     start = params.load(FIXTURES / "plain.json").replace({"pattern": custom})
     prepared = SimpleNamespace(regularized=SimpleNamespace(box=(0.0, 0.0, 10.0, 10.0)))
     cells = CellGrid(rows=np.arange(5.0), cols=np.arange(5.0))
@@ -416,39 +415,6 @@ def test_aligned_cells_of_a_back_lit_photo_hold_its_fabric():
                                                       white=white_level(image)).render()
                                        - cell_canvas(image, cells, 12)))) for p in (truth.pattern, 1 - truth.pattern))
     assert -10 * np.log10(best) > 30.0
-
-
-@pytest.mark.slow
-@pytest.mark.parametrize("name, variance_right", [("04_twill31_b", False), ("06_twill22_b", True)])
-def test_aligned_cells_of_independent_photos_are_centred_on_their_crossings(tmp_path, name, variance_right):
-    """Two of the fit bench's independent photos (weavecap.heightfield_photos, made as the bench
-    makes them), against the generator's lattice. The twill 3/1 Z's corner variance picks the
-    wrong half on both axes (cell centres +0.31 / −0.43 cell off the crossings); its votes there
-    spell no named weave, the shift's whose do is taken (−0.19 / +0.07). The twill 2/2 Z's
-    corner-variance pick is right (−0.11 / −0.05), its votes spell a named weave, and it stays
-    bit-identical."""
-    from weavecap import fit_bench
-    from weavecap.estimate.cells import cell_canvas
-    from weavecap.fit.target import (ALIGN_CELL_PX, HALF_SHIFTS, align_cells, half_shift, mirror_cells,
-                                     repeat_cells, variance_score)
-    from weavecap.heightfield_photos import bench_specs, write_photo
-    from weavecap.photo import load_photo
-    from weavecap.prepare import prepare_photo
-
-    k, spec = next((k, s) for k, s in enumerate(bench_specs()) if s.name == name)
-    path = write_photo(tmp_path / f"{name}.jpg", spec, seed=11 + k)  # fit_bench.make_independent_photos' seed
-    photo = fit_bench.BenchPhoto(path=path, truth=None, family="", rotate_deg=spec.rotate_deg, pattern=spec.pattern,
-                                 set="independent", made_by=spec)
-    prepared = prepare_photo(load_photo(path).rgb)
-    image, start = prepared.regularized.image, repeat_cells(prepared, prepared.regularized.box)
-    mirrored = mirror_cells(image, start)
-    by_variance = max((half_shift(mirrored, dy, dx) for dy, dx in HALF_SHIFTS),
-                      key=lambda m: variance_score(cell_canvas(image, m, ALIGN_CELL_PX), m.shape))
-    aligned = align_cells(image, start)
-    assert not fit_bench.lattice_error(fit_bench.crossing_phase(photo, prepared, aligned)).any()
-    assert fit_bench.lattice_error(fit_bench.crossing_phase(photo, prepared, by_variance)).any() != variance_right
-    if variance_right:
-        assert np.array_equal(aligned.rows, by_variance.rows) and np.array_equal(aligned.cols, by_variance.cols)
 
 
 @pytest.mark.parametrize("losses, agree, chosen", [

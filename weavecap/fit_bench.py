@@ -42,9 +42,7 @@ SETS = ("own", "independent")
 @dataclass(frozen=True)
 class BenchPhoto:
     """A bench photo and its truth: the whole fabric (own renders) or only its pattern
-    (independent photos, ``truth`` None). ``made_by`` is what made it, for where its yarns
-    lie (:func:`crossing_phase`): the :class:`weavecap.model.scene.View` of an own render, the
-    :class:`weavecap.heightfield_photos.PhotoSpec` of an independent photo."""
+    (independent photos, ``truth`` None)."""
 
     path: Path
     truth: Fabric | None
@@ -52,7 +50,6 @@ class BenchPhoto:
     rotate_deg: float
     pattern: np.ndarray | None = None
     set: str = "own"
-    made_by: object = None
 
     @property
     def true_pattern(self) -> np.ndarray:
@@ -87,7 +84,7 @@ def make_photos(folder: Path, *, quick: bool, seed: int = 2026) -> list[BenchPho
         srgb = (np.clip(linear_to_srgb(np.clip(image, 0, 1)), 0, 1) * 255 + 0.5).astype(np.uint8)
         path = folder / f"{k:02d}_{family.replace(' ', '')}.jpg"
         cv2.imwrite(str(path), cv2.cvtColor(srgb, cv2.COLOR_RGB2BGR), [cv2.IMWRITE_JPEG_QUALITY, 90])
-        photos.append(BenchPhoto(path=path, truth=truth, family=family, rotate_deg=rotate, made_by=view))
+        photos.append(BenchPhoto(path=path, truth=truth, family=family, rotate_deg=rotate))
     return photos
 
 
@@ -101,55 +98,8 @@ def make_independent_photos(folder: Path, *, quick: bool, seed: int = 11) -> lis
     for k, spec in enumerate(bench_specs(seed=seed, quick=quick)):
         path = write_photo(folder / f"{spec.name}.jpg", spec, seed=seed + k)
         photos.append(BenchPhoto(path=path, truth=None, family=weave_name(spec.pattern),
-                                 rotate_deg=spec.rotate_deg, pattern=np.asarray(spec.pattern), set="independent",
-                                 made_by=spec))
+                                 rotate_deg=spec.rotate_deg, pattern=np.asarray(spec.pattern), set="independent"))
     return photos
-
-
-def _truth_phase(photo: BenchPhoto, points_yx: np.ndarray) -> np.ndarray:
-    """Offsets (N, 2) in cells (rows, cols), each in [-0.5, 0.5), of photo points (N, 2) (y, x;
-    pixel centres at integers) from the nearest yarn crossing of the photo's truth."""
-    if photo.set == "independent":
-        from .heightfield_photos import crossing_phase as heightfield_phase
-
-        return heightfield_phase(photo.made_by, points_yx)
-    from .model.geometry import PITCH
-    from .model.scene import make_frame
-
-    # the own renders' camera rays (weavecap.model.render._camera_rays) meet the plane z = 0
-    # where an orthographic camera's would: the lattice is an affine image of the photo
-    frame = make_frame(photo.truth.shape, photo.made_by)
-    (height, width), (ext_w, ext_h) = frame.shape, frame.extent
-    y, x = np.asarray(points_yx, np.float64).reshape(-1, 2).T
-    a, b = ((x + 0.5) / width - 0.5) * ext_w, ((y + 0.5) / height - 0.5) * ext_h
-    theta = np.radians(photo.made_by.rotate_deg)
-    fx = frame.center[0] + np.cos(theta) * a - np.sin(theta) * b
-    fy = frame.center[1] + np.sin(theta) * a + np.cos(theta) * b
-    return np.column_stack([fy, fx]) / PITCH % 1.0 - 0.5  # yarn i at (i + 1/2) PITCH
-
-
-def crossing_phase(photo: BenchPhoto, prepared, cells) -> np.ndarray:
-    """How far the centres of ``cells`` (a CellGrid of one repeat in the regularized box's
-    pixels, :func:`weavecap.fit.target.align_cells`) sit from the truth's yarn crossings:
-    (rows, cols) in cells, the circular mean over the repeat's cells, each in [-0.5, 0.5) —
-    0 when the cells are centred on the crossings (their corners on the gaps), ±0.5 when they
-    are half a cell off. The centres are carried box → rectified (``prepared``'s box) → photo
-    (the inverse of its rectification's homography)."""
-    y0, x0 = prepared.regularized.box[:2]
-    # CellGrid bounds are pixel edges (pixel i spans [i, i + 1)); the homography's pixel centres are integers
-    yc = y0 + 0.5 * (cells.rows[:-1] + cells.rows[1:]) - 0.5
-    xc = x0 + 0.5 * (cells.cols[:-1] + cells.cols[1:]) - 0.5
-    yy, xx = np.meshgrid(yc, xc, indexing="ij")
-    xy1 = np.column_stack([xx.ravel(), yy.ravel(), np.ones(xx.size)]) @ np.linalg.inv(prepared.rectification.homography).T
-    offsets = _truth_phase(photo, np.column_stack([xy1[:, 1] / xy1[:, 2], xy1[:, 0] / xy1[:, 2]]))
-    mean = np.angle(np.exp(2j * np.pi * offsets).mean(axis=0)) / (2 * np.pi)
-    return (mean + 0.5) % 1.0 - 0.5
-
-
-def lattice_error(phase: np.ndarray) -> np.ndarray:
-    """Which axes (rows, cols) of a :func:`crossing_phase` are on the wrong half of the cell:
-    more than a quarter cell from the crossings (bool (2,))."""
-    return np.abs(np.asarray(phase, np.float64)) > 0.25
 
 
 def score_pattern(fit: Fabric | None, truth: np.ndarray) -> dict:

@@ -342,29 +342,6 @@ def _homography(spec: PhotoSpec) -> np.ndarray:
     return centre @ proj @ rot
 
 
-def crossing_phase(spec: PhotoSpec, points_yx: np.ndarray, homography: np.ndarray | None = None) -> np.ndarray:
-    """Where the truth's yarn crossings lie relative to ``points_yx``: the offset of each point
-    from the nearest crossing of the fabric's regular lattice, in cells along (the wefts' axis
-    v, the warps' axis u), each wrapped to [-0.5, 0.5) — 0 on a crossing, ±0.5 on a gap.
-
-    The lattice is the yarns' mean positions (weft i at v = (i + 1/2) × weft pitch, warp j at
-    u = (j + 1/2) × warp pitch, :func:`_yarns` before its jitter), carried to the photo by
-    :func:`_homography`. ``points_yx`` (N, 2) are (y, x) with pixel centres at integer
-    coordinates: photo pixels, or, with ``homography`` (3, 3) from those points' (x, y, 1) to
-    the photo's pixels, any other frame (a rectified photo). Returns (N, 2) float.
-    """
-    pts = np.asarray(points_yx, np.float64).reshape(-1, 2)
-    xy1 = np.column_stack([pts[:, 1], pts[:, 0], np.ones(len(pts))])
-    to_fabric = np.linalg.inv(_homography(spec))
-    if homography is not None:
-        to_fabric = to_fabric @ np.asarray(homography, np.float64)
-    uvw = xy1 @ to_fabric.T
-    u, v = uvw[:, 0] / uvw[:, 2], uvw[:, 1] / uvw[:, 2]
-    pa, pe = spec.pitch_px
-    cells = np.column_stack([v / pe - 0.5, u / pa - 0.5])
-    return (cells + 0.5) % 1.0 - 0.5
-
-
 def scene_radiance(spec: PhotoSpec, *, seed: int = 0, supersample: int = 2) -> np.ndarray:
     """The photo before the camera's electronics: (H, W, 3) linear RGB, the fabric through the
     lens (turn, perspective, ``supersample``² samples a pixel, optical blur)."""

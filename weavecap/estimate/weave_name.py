@@ -121,9 +121,3 @@ def weave_name(pattern: np.ndarray) -> str:
             if name:
                 return name
     return f"custom {p.shape[0]}×{p.shape[1]}"
-
-
-def spells_named_weave(pattern: np.ndarray) -> bool:
-    """The pattern has a name other than custom (:func:`weave_name`: at any phase, tiled, or
-    an extended satin) — the same rule the report names it by."""
-    return not weave_name(pattern).startswith("custom")

@@ -18,7 +18,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .. import params as wparams
-from ..estimate.weave_name import spells_named_weave
 from ..model.scene import LightRig
 from .config import FitConfig
 from .target import dual, mean_repeat, photo_blur, register_cells, shifted
@@ -90,6 +89,14 @@ def _fit_round(prepared, cells, fabric: wparams.Fabric, rig: LightRig, config: F
                  blur_px=blur_px, votes=cell_votes(target, fabric.shape))
     return RegisteredFit(result=result, target=target, cells=cells, blur_px=blur_px,
                          notes={"cell_shift": [round(v, 3) for v in shift]})
+
+
+def is_named_weave(pattern: np.ndarray) -> bool:
+    """The pattern has a name other than custom (:func:`weavecap.estimate.weave_name.weave_name`:
+    at any phase, tiled, or an extended satin) — the same rule the report names it by."""
+    from ..estimate.weave_name import weave_name
+
+    return not weave_name(pattern).startswith("custom")
 
 
 def best_named_weave(prepared, cells, start: wparams.Fabric, rig: LightRig, *, c: int,
@@ -297,13 +304,13 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
         if last.result.loss < best.result.loss:  # every round scores against the same photo
             best = last
         k += 1
-    if explore_patterns and not spent() and not spells_named_weave(best.result.fabric.pattern):
+    if explore_patterns and not spent() and not is_named_weave(best.result.fabric.pattern):
         scored = best_named_weave(prepared, best.cells, best.result.fabric, best.rig, c=c, tolerance=math.inf)
         # the named weave the chosen start had, when the pattern sweeps drifted off it (the
         # independent satin 8/5 warp-faced: started on its votes' pattern, the truth, it ended a
         # custom 8x8; the named weave that scored best with those values was a basket 4/4)
         began = starts[chosen].pattern
-        candidates = [p for p in (scored, began if spells_named_weave(began) else None) if p is not None]
+        candidates = [p for p in (scored, began if is_named_weave(began) else None) if p is not None]
         if len(candidates) == 2 and equal_up_to_shift(*candidates):
             candidates = candidates[:1]
         tried = []

@@ -39,86 +39,42 @@ def shifted(cells: CellGrid, box) -> CellGrid:
     return CellGrid(rows=cells.rows + box[0], cols=cells.cols + box[1])
 
 
-ALIGN_CELL_PX = 12  # canvas px per cell on which align_cells compares lattices
-HALF_SHIFTS = ((0.0, 0.0), (0.0, 0.5), (0.5, 0.0), (0.5, 0.5))  # (dy, dx) in cells
-# canvas px per cell for the votes on a shift: the votes' border band and span are then whole
-# pixels (3 and 10 px, weavecap.estimate.orientation's BAND and SPAN); on the 12-px canvas
-# (2 and 6 px) they vetoed the right shift of two own renders (twills 2/1 Z and S)
-VOTE_CELL_PX = 20
-
-
-def half_shift(cells: CellGrid, dy: float, dx: float) -> CellGrid:
-    """``cells`` moved by (``dy``, ``dx``) cells (the mean pitch of each axis)."""
-    return CellGrid(rows=cells.rows + dy * np.diff(cells.rows).mean(),
-                    cols=cells.cols + dx * np.diff(cells.cols).mean())
-
-
-def mirror_cells(image: np.ndarray, cells: CellGrid, c: int = ALIGN_CELL_PX) -> CellGrid:
-    """``cells`` moved onto the centre of mirror symmetry of the folded projections nearest
-    their corners (:func:`weavecap.estimate.cells.mirror_phase`, sub-pixel): the gaps or the
-    yarn centres, whatever the light and the gap's width. ``image`` (H, W, 3), ``c`` canvas px
-    per cell; the move is under a quarter cell on each axis."""
-    sy, sx = mirror_phase(cell_canvas(image, cells, c), cells.shape)
-    sy, sx = (sy + c / 4) % (c / 2) - c / 4, (sx + c / 4) % (c / 2) - c / 4  # the centre nearest the corners
-    return half_shift(cells, sy / c, sx / c)
-
-
-def variance_score(canvas: np.ndarray, shape: tuple[int, int]) -> float:
-    """How much more a canvas's cell corners vary than its cell centres: the mean variance of
-    the grey (2w × 2w) window about every cell corner less that of the window about every cell
-    centre, w a quarter cell. A corner window holds a gap and four yarn edges whatever the
-    light; a centre window sits on a smooth crossing. ``canvas`` (n_e*c, n_a*c, 3) of a repeat
-    (it wraps), ``shape`` (n_e, n_a)."""
-    n_e, n_a = shape
-    c = canvas.shape[0] // n_e
-    win = max(1, c // 4)
-    grey = canvas.mean(axis=2)
-    tiles = grey.reshape(n_e, c, n_a, c).transpose(0, 2, 1, 3)
-    centre = tiles[:, :, c // 2 - win: c // 2 + win, c // 2 - win: c // 2 + win]
-    corner = np.roll(np.roll(grey, win, axis=0), win, axis=1)
-    corner = corner.reshape(n_e, c, n_a, c).transpose(0, 2, 1, 3)[:, :, :2 * win, :2 * win]
-    return float(corner.var(axis=(2, 3)).mean() - centre.var(axis=(2, 3)).mean())
-
-
 def align_cells(image: np.ndarray, cells: CellGrid) -> CellGrid:
     """Put the cell corners on the gaps between yarns (§5's cells are centred on yarn
-    crossings): first onto a centre of mirror symmetry of the projections
-    (:func:`mirror_cells`: the gaps or the yarn centres), then one of the four half-pitch
-    shifts (dy, dx ∈ {0, ½} cells, :data:`HALF_SHIFTS`) of that lattice: the one whose corners
-    vary most and whose centres vary least (:func:`variance_score`) — unless the model-free
-    votes on its cells (:func:`weavecap.estimate.orientation.cell_votes`) spell no named weave
-    while another shift's do (:func:`weavecap.estimate.weave_name.spells_named_weave`): then
-    the best-scoring of those.
+    crossings): first onto a centre of mirror symmetry of the projections (sub-pixel,
+    :func:`weavecap.estimate.cells.mirror_phase`: the gaps or the yarn centres), then, of the
+    four half-pitch shifts of that lattice, the one whose corners vary most and whose centres
+    vary least.
 
     The yarn boundaries of §4.4 are valleys of the integral projection — right under front
     light, where gaps are dark, but off under back light, where they glow: there the valley is
     wherever the yarn is darkest, half a pitch from the gap give or take the yarn's shading (a
     sixth of a cell on the fixtures' plain weave, and every estimate of the pre-estimate is
     then made on the wrong cells: the true fabric scored 19.6 dB against that canvas, 33.4 dB
-    registered). The corner variance alone picked the wrong half on 11 of the 36 axes of the
-    independent bench photos (:mod:`weavecap.heightfield_photos`, against the generator's
-    lattice, ``scripts/measure_phase.py``); half a cell off, the votes read yarn centres as
-    borders and rarely spell a weave: with the votes' veto 6 of 36, the own renders 2 of 16
-    with their lattices bit-identical (the real easy photos' too). Fitted at normal, the four
-    whose lattice moved kept their pattern's exactness (04 twill 3/1 Z and 10 satin 8/5 exact,
-    05 twill 2/2 S and 11 basket still fitted as twills; docs/capture.md, session 7).
-    ``image`` (H, W, 3) linear RGB, ``cells`` a CellGrid in its pixels; returns a CellGrid.
+    registered). A corner window holds a gap and four yarn edges whatever the light; a centre
+    window sits on a smooth crossing. ``image`` (H, W, 3) linear RGB, ``cells`` a CellGrid in
+    its pixels.
     """
-    from ..estimate.orientation import cell_votes, vote_pattern
-    from ..estimate.weave_name import spells_named_weave
-
-    cells = mirror_cells(image, cells, ALIGN_CELL_PX)
-    scored = []  # (score, cells, named) per shift
-    for dy, dx in HALF_SHIFTS:
-        moved = half_shift(cells, dy, dx)
-        votes = cell_votes(cell_canvas(image, moved, VOTE_CELL_PX), moved.shape)
-        scored.append((variance_score(cell_canvas(image, moved, ALIGN_CELL_PX), moved.shape), moved,
-                       spells_named_weave(vote_pattern(votes))))
-    best = max(scored, key=lambda s: s[0])  # the first of equal scores
-    named = [s for s in scored if s[2]]
-    if best[2] or not named:
-        return best[1]
-    return max(named, key=lambda s: s[0])[1]
+    c = 12
+    win = max(1, c // 4)
+    sy, sx = mirror_phase(cell_canvas(image, cells, c), cells.shape)
+    sy, sx = (sy + c / 4) % (c / 2) - c / 4, (sx + c / 4) % (c / 2) - c / 4  # the centre nearest the corners
+    cells = CellGrid(rows=cells.rows + sy / c * np.diff(cells.rows).mean(),
+                     cols=cells.cols + sx / c * np.diff(cells.cols).mean())
+    best, best_score = cells, -np.inf
+    for dy in (0.0, 0.5):
+        for dx in (0.0, 0.5):
+            moved = CellGrid(rows=cells.rows + dy * np.diff(cells.rows).mean(),
+                             cols=cells.cols + dx * np.diff(cells.cols).mean())
+            grey = cell_canvas(image, moved, c).mean(axis=2)
+            tiles = grey.reshape(moved.shape[0], c, moved.shape[1], c).transpose(0, 2, 1, 3)
+            centre = tiles[:, :, c // 2 - win: c // 2 + win, c // 2 - win: c // 2 + win]
+            corner = np.roll(np.roll(grey, win, axis=0), win, axis=1)
+            corner = corner.reshape(moved.shape[0], c, moved.shape[1], c).transpose(0, 2, 1, 3)[:, :, :2 * win, :2 * win]
+            score = float(corner.var(axis=(2, 3)).mean() - centre.var(axis=(2, 3)).mean())
+            if score > best_score:
+                best, best_score = moved, score
+    return best
 
 
 def correlation_shift(photo: np.ndarray, model: np.ndarray) -> np.ndarray:
