@@ -235,8 +235,7 @@ def both_sides_samples(scene: "mi.Scene", shape: "mi.Shape", vertices: np.ndarra
     """:func:`neighbourhood_samples` of the front and the back at ``seed`` (each the same as its
     own call gives), from one set of hat points and one ray query: the back's rays are the
     front's mirrored, so the two sides cost one set of points and directions."""
-    front, back = _sides(scene, shape, vertices, faces, desc, (0, 1), count, seed, at)
-    return front, back
+    return tuple(_sides(scene, shape, vertices, faces, desc, (0, 1), count, seed, at))
 
 
 def _sides(scene, shape, vertices, faces, desc: Descriptors, sides: tuple[int, ...], count: int, seed: int,
@@ -278,8 +277,10 @@ def _trace_neighbours(scene, shape, origin: np.ndarray, direction: np.ndarray, f
         ray = mi.Ray3f(jit_vec3(o[rows], mi.Point3f), jit_vec3(d[rows], mi.Vector3f))
         ray.maxt = mi.Float(radius)
         si = scene.ray_intersect(ray)
-        hit_albedo = albedo(si, si.is_valid())
-        dr.eval(si.p, si.sh_frame.n, hit_albedo)  # one kernel
+        valid = si.is_valid()
+        hit_albedo = albedo(si, valid)
+        dr.eval(valid, si.p, si.sh_frame.n, hit_albedo)  # one kernel
+        found[rows] &= np.asarray(valid)  # the same rays meet the same hits; a miss (none seen) is no neighbour
         points[rows], n = _np3(si.p), _np3(si.sh_frame.n)
         normals[rows] = np.where((np.einsum("mj,mj->m", n, d[rows]) > 0)[:, None], -n, n)
         albedos[rows] = _np3(hit_albedo)
