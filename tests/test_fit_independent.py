@@ -55,4 +55,29 @@ def test_a_photo_brighter_than_the_rig_is_not_blown_out(tmp_path):
     assert fid["sharpness"] > 0.2, fid
     assert max(fid["delta_e"].values()) < 5, fid
     assert all(fid["lab"][family]["render"][0] < 97 for family in ("warp", "weft")), fid
-    assert cap.report["pre_estimation"]["exposure_gain"] > 2.0
+    assert cap.report["fit"]["light"]["photo_exposure"] > 2.0
+
+
+def test_the_same_fabric_a_stop_darker_or_brighter_gives_the_same_colours(tmp_path):
+    """Exposure invariance (issue 11): the photo is read relative to its own exposure
+    (:func:`weavecap.estimate.preestimate.photo_exposure`), so the plain case shot a stop
+    darker and a stop brighter is fitted to the same colours, and the report's gain follows
+    the camera. Before it the fit's gain had a floor of 1 against the rig: the bench's plain a
+    stop darker came out at gain 1.00 (as shot 1.62) with its warp ΔE 8.6 off."""
+    from skimage.color import deltaE_ciede2000
+
+    from weavecap.estimate.colour import linear_to_lab
+
+    base = hp.PhotoSpec("plain", pitch_px=(26.0, 24.0), size_px=(512, 512), rotate_deg=6.0, tilt_deg=(2.0, -3.0),
+                        blur_px=0.7, noise=0.008, jpeg_quality=88, **CASES["plain"])
+    colours, gains = {}, {}
+    for stops in (-1.0, 0.0, 1.0):
+        spec = hp.with_camera(base, exposure_stops=base.exposure_stops + stops)
+        cap = capture(hp.write_photo(tmp_path / f"plain{stops:+.0f}.jpg", spec, seed=3), CaptureOptions(quality="draft"))
+        assert cap.status == "ok", cap.report.get("reason")
+        colours[stops] = [linear_to_lab(cap.fabric.get(f"{f}.body_reflection")) for f in ("warp", "weft")]
+        gains[stops] = float(np.mean(cap.report["fit"]["light"]["gain"]))
+    for stops in (-1.0, 1.0):
+        for family in range(2):
+            assert deltaE_ciede2000(colours[stops][family], colours[0.0][family]) < 3, (stops, colours)
+        np.testing.assert_allclose(gains[stops] / gains[0.0], 2.0 ** stops, rtol=0.1)

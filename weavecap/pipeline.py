@@ -133,7 +133,7 @@ def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), 
             progress: Callable[[str], None] | None = None) -> Capture:
     """Run the whole pipeline on one photo. Bad photos give status ``rejected``, not errors."""
     from .estimate.cells import cell_canvas
-    from .estimate.preestimate import pre_estimate
+    from .estimate.preestimate import photo_exposure, pre_estimate
     from .estimate.weave_name import weave_name
     from .fit.confidence import pattern_confidence
     from .fit import modelled
@@ -183,6 +183,10 @@ def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), 
     config = options.config
     c = cell_px_for(config, shape)
     light, light_reason = ("both", "auto") if options.light == "auto" else (options.light, "given")
+    # from here on the photo is read relative to its own exposure, so that the same fabric shot
+    # a stop darker or brighter is fitted alike; the outputs show it as shot
+    as_shot, exposure = prepared, photo_exposure(prepared.regularized.image, cells, light=light)
+    prepared = prepared.exposed(exposure)
 
     say(f"pre-estimating a {shape[0]}x{shape[1]} repeat (pattern, colours, parameters)")
     t = time.perf_counter()
@@ -252,14 +256,14 @@ def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), 
         "parameters": {key: {"standard_error": round(se, 4) if np.isfinite(se) else None,
                              "determined": bool(se <= DETERMINED_SE)} for key, se in errors.items()},
     }
-    report["fit"]["light"] = modelled.light_json(fitted.rig, result.moves)
+    report["fit"]["light"] = modelled.light_json(fitted.rig, result.moves, exposure=exposure)
     report["modelled"] = modelled.describe(plan, result, errors, light=light, light_reason=light_reason,
                                            spp=config.spp,
                                            blur_px=blur_px, noise=noise, pitch_px=pitch, plies_flat=config.plies_flat)
     report["timings_s"] = {k: round(v, 3) for k, v in timings.items()}
     error = np.abs(rendered - target) * 4.0
-    images = {"compare.png": np.concatenate([target, rendered, error], axis=1),
-              "rectified.png": prepared.rectification.image, "grid.png": prepared.grid_overlay()}
+    images = {"compare.png": exposure * np.concatenate([target, rendered, error], axis=1),
+              "rectified.png": as_shot.rectification.image, "grid.png": as_shot.grid_overlay()}
     return Capture(report=report, fabric=fabric, images=images, history=result.history,
                    captions={"compare.png": faithful.caption()})
 

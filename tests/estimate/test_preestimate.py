@@ -46,3 +46,17 @@ def test_a_photo_brighter_than_the_rig_is_estimated_at_its_exposure(twill_fabric
     assert np.argmax(warp) == 2 and np.mean(est[4.0].colours.weft) > np.mean(warp)  # blue warp, light weft
     assert equal_up_to_shift(est[4.0].fabric.pattern, twill_fabric.pattern)
     assert est[4.0].to_json()["exposure_gain"] == pytest.approx(est[4.0].gain, rel=1e-3)
+
+
+def test_the_photo_exposure_is_proportional_to_the_photo(twill_fabric):
+    """photo_exposure reads the photo's brightness against the rig: half the light, half the
+    exposure, for a photo darker than the rig's white fabric as for one brighter (no floor);
+    a black photo, which no exposure explains, reads 1."""
+    from weavecap.estimate import photo_exposure
+
+    photo, grid, _ = photo_of(twill_fabric, cell_px=12)
+    e = {k: photo_exposure(photo * k, grid) for k in (0.25, 0.5, 4.0)}
+    assert e[0.25] < 1.0 < e[4.0]
+    assert e[0.5] / e[0.25] == pytest.approx(2.0, rel=1e-3)
+    assert e[4.0] / e[0.5] == pytest.approx(8.0, rel=1e-3)
+    assert photo_exposure(np.zeros_like(photo), grid) == 1.0

@@ -7,11 +7,12 @@
 - :mod:`.initializer` — §5.3, the VGG-style network, or Table 1 defaults (§7.3);
 - :mod:`.training`, :mod:`.sampling` — its training data and training (``weavecap train-initializer``);
 - :mod:`.weave_name` — the weave's name for people;
-- :mod:`.preestimate` — all of it in order: :func:`pre_estimate`.
+- :mod:`.preestimate` — all of it in order: :func:`pre_estimate`; the photo's exposure against the rig,
+  :func:`photo_exposure`.
 """
 
 from .cells import CellGrid, cell_canvas
-from .preestimate import PreEstimate, default_fabric, pre_estimate
+from .preestimate import PreEstimate, default_fabric, photo_exposure, pre_estimate
 from .weave_name import weave_name
 
-__all__ = ["CellGrid", "cell_canvas", "PreEstimate", "default_fabric", "pre_estimate", "weave_name"]
+__all__ = ["CellGrid", "cell_canvas", "PreEstimate", "default_fabric", "photo_exposure", "pre_estimate", "weave_name"]

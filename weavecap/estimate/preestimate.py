@@ -112,6 +112,31 @@ def _coloured(fabric: Fabric, image: np.ndarray, grid: CellGrid, light: str) -> 
     return fabric.replace(colours.values()), colours, rr
 
 
+def _first_colours(canvas: np.ndarray, start: np.ndarray, light: str) -> tuple[RepeatRenderer, Colours]:
+    """§5.2's colours of a default fabric woven as ``start`` (the "twill and grey" start,
+    Fig. 6) on a :data:`PATTERN_CELL_PX` canvas, and its renderer."""
+    rr = RepeatRenderer(default_fabric(start), cell_px=PATTERN_CELL_PX, light=light)
+    return rr, estimate_colours(canvas, rr.fabric, cell_px=PATTERN_CELL_PX, renderer=rr)
+
+
+def photo_exposure(image: np.ndarray, grid: CellGrid, *, light: str = "both") -> float:
+    """The photo's exposure against the light rig (a property of the photo, not of the fabric):
+    the gain g at which the §5.2 colours of the default twill start are all within reach, the
+    largest at 1 (:attr:`~.colour.Colours.exposure`); 1 where no g does.
+
+    Proportional to the photo: the same fabric a stop darker gives half the exposure, so a
+    photo divided by it reads the same whatever the camera's exposure (issue 11's invariance).
+    A single photo cannot tell a grey fabric from a white one a stop darker; this puts the
+    brightest yarn colour at the rig's reach, and a back light seen through the gaps, which
+    the fit's gain solve reads (:func:`weavecap.fit.joint.solve_colours`), fixes the rest.
+
+    image : (H, W, 3) linear RGB, the regularized photo; grid : one repeat's cells in it.
+    """
+    canvas = cell_canvas(image, grid, PATTERN_CELL_PX)
+    exposure = _first_colours(canvas, twill_start(grid.shape), light)[1].exposure
+    return float(exposure) if np.isfinite(exposure) and exposure > 0 else 1.0
+
+
 def pre_estimate(image: np.ndarray, grid: CellGrid, *, light: str = "both", use_network: bool = True,
                  predictor: Predictor | None = None) -> PreEstimate:
     """Pre-estimate a fabric from a regularized photo and the cells of one repeat (§5).
@@ -132,8 +157,7 @@ def pre_estimate(image: np.ndarray, grid: CellGrid, *, light: str = "both", use_
     t = time.perf_counter()
     canvas = cell_canvas(image, grid, PATTERN_CELL_PX)
     start = twill_start(grid.shape)
-    rr = RepeatRenderer(default_fabric(start), cell_px=PATTERN_CELL_PX, light=light)
-    first_colours = estimate_colours(canvas, rr.fabric, cell_px=PATTERN_CELL_PX, renderer=rr)
+    rr, first_colours = _first_colours(canvas, start, light)
     # the photo's exposure: a photo brighter than the rig's white fabric is divided by the
     # gain that brings its colours within reach (see PreEstimate.gain)
     gain = max(1.0, first_colours.exposure) if np.isfinite(first_colours.exposure) else 1.0

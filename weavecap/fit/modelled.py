@@ -110,18 +110,25 @@ def plan(start: Fabric, *, cell_px: int, fixed: frozenset = frozenset(), unseen:
     return Plan(start=start, fixed=frozenset(fixed), reasons=reasons)
 
 
-def light_json(rig, moves: dict) -> dict:
+def light_json(rig, moves: dict, *, exposure: float = 1.0) -> dict:
     """report.json's ``fit.light``: the rig and the gain fitted to the photo (its exposure and
     white balance: photo = gain × render at unit gain), and per channel whether the photo
-    determined it (the back light through the gaps) or the range rule set it."""
+    determined it (the back light through the gaps) or the range rule set it.
+
+    ``exposure``: what the photo was divided by before the fit
+    (:func:`weavecap.estimate.preestimate.photo_exposure`); ``gain`` includes it, ``rig.gain``
+    (the fit's own) does not."""
     solve = moves.get("colour_solve", {})
     determined = solve.get("gain_determined")
     how = ("not solved" if determined is None else
            "the back light seen through the gaps" if all(determined) else
-           "the smallest gain (>= 1) that keeps every colour within its range: the photo shows no reference"
+           "the photo's exposure (its brightest yarn colour at the rig's reach) times the smallest gain (>= 1) "
+           "that keeps every colour within its range: the photo shows no reference"
            if not any(determined) else "the gaps for the channels marked determined, the range rule for the rest")
-    return {"rig": rig.name, "gain": [round(float(v), 4) for v in rig.gain],
-            "exposure_stops": round(float(np.log2(max(float(np.mean(rig.gain)), 1e-12))), 3),
+    gain = exposure * np.asarray(rig.gain, np.float64)
+    return {"rig": rig.name, "gain": [round(float(v), 4) for v in gain],
+            "photo_exposure": round(float(exposure), 4),
+            "exposure_stops": round(float(np.log2(max(float(np.mean(gain)), 1e-12))), 3),
             "gain_determined": determined, "gain_from": how}
 
 

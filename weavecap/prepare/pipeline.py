@@ -21,7 +21,7 @@ A photo that is not a resolvable woven fabric is not fitted to noise: the result
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Callable
 
 import cv2
@@ -96,6 +96,15 @@ class Prepared:
             "checks": _plain(self.checks),
             "timings_s": {k: round(v, 4) for k, v in self.timings_s.items()},
         }
+
+    def exposed(self, exposure: float) -> "Prepared":
+        """This photo as if taken at ``exposure`` times less light: the rectified and the
+        regularized images divided by it, the geometry unchanged."""
+        def scaled(image: np.ndarray) -> np.ndarray:
+            return (np.asarray(image, np.float32) / np.float32(exposure)).astype(np.float32)
+
+        return replace(self, rectification=replace(self.rectification, image=scaled(self.rectification.image)),
+                       regularized=replace(self.regularized, image=scaled(self.regularized.image)))
 
     def grid_overlay(self, *, min_side: int = 512) -> np.ndarray:
         """The rectified photo with the yarn grid drawn over it (linear RGB, for grid.png).
