@@ -84,7 +84,8 @@ def bench(quick, do_model, do_fit, do_render, sets, presets, out):
         exposure = []
         if "independent" in photo_sets and not quick:
             for preset in presets:
-                exposure += fit_bench.exposure_invariance(preset, out / "exposure", progress=say)
+                for mode in ("rig", "photo"):
+                    exposure += fit_bench.exposure_invariance(preset, out / "exposure", exposure=mode, progress=say)
         atomic_write_text(out / "results.json", json.dumps({"photos": rows, "summary": summary,
                                                             "exposure": exposure}, indent=1) + "\n")
         for name, make in (("own", fit_bench.table), ("independent", fit_bench.independent_table)):

@@ -28,14 +28,18 @@ from .options import (check_batch_options, force_option, jobs_option, quiet_opti
               help="Warm start: begin the fit at this params.json instead of the pre-estimate.")
 @click.option("--pattern", "pattern_file", type=click.Path(dir_okay=False, path_type=Path),
               help="A known weave pattern (params .json, .wif weaving draft, or a text file of 0/1 rows), kept fixed.")
+@click.option("--exposure", type=click.Choice(["rig", "photo"]), default="rig", show_default=True,
+              help="Colours against the light rig (photos exposed like the rig), or against each photo's own "
+                   "exposure: the same fabric shot darker or brighter gets the same colours (a catalogue shot "
+                   "at varying exposure).")
 @click.option("--no-network", is_flag=True, help="Start from Table 1 defaults instead of the initializer network.")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON on standard output.")
 @seed_option
 @force_option
 @verbose_option
 @quiet_option
-def fit(photos, out, quality, light, budget_s, jobs, scheduler, start_from, pattern_file, no_network, as_json, seed, force,
-        verbose, quiet):
+def fit(photos, out, quality, light, budget_s, jobs, scheduler, start_from, pattern_file, exposure, no_network, as_json,
+        seed, force, verbose, quiet):
     """Capture woven fabrics from close-up photos: pattern, yarn geometry and appearance.
 
     For each PHOTO: rectify and find the yarn grid (§4), pre-estimate pattern, colours and
@@ -58,6 +62,7 @@ def fit(photos, out, quality, light, budget_s, jobs, scheduler, start_from, patt
       weavecap fit /shared/photos/*.jpg -o /shared/catalogue/ --scheduler tcp://head:8786
       weavecap fit swatch.dng -o swatch/ --light back --budget 30 --force
       weavecap fit swatch.jpg -o refit/ --start-from swatch/params.json --pattern twill.txt
+      weavecap fit shoot/*.jpg -o catalogue/ --exposure photo
     """
     from weavecap import batch as wbatch
     from weavecap import params as wparams
@@ -85,7 +90,7 @@ def fit(photos, out, quality, light, budget_s, jobs, scheduler, start_from, patt
     job = FitJob(CaptureOptions(quality=quality, light=light, seed=seed, budget_s=budget_s,
                                 start_from=wparams.load(start_from) if start_from else None,
                                 pattern=load_pattern(pattern_file) if pattern_file else None,
-                                use_network=not no_network))
+                                use_network=not no_network, exposure=exposure))
     batch = wbatch.plan(job, photos, out, force=force)
     result = wbatch.run(batch, jobs=jobs, scheduler=scheduler, on_event=report)
     if as_json:

@@ -60,4 +60,4 @@ def test_independent_rows_are_scored_on_pattern_and_fidelity():
     assert "| normal | 4/4 |" in table and "75%" in table and fit_bench.table([row]) == ""
     ex = fit_bench.exposure_table([{"fabric": "f", "preset": "draft", "fitted": 4, "delta_e_max": {"warp": 1.23,
                                     "weft": 2.5}, "gain": {"as shot": [1.0, 1.0, 1.0]}}])
-    assert "| f | draft | 4/4 | 1.2 | 2.5 |" in ex
+    assert "| f | draft | rig | 4/4 | 1.2 | 2.5 |" in ex

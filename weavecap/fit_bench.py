@@ -182,12 +182,13 @@ EXPOSURE_VARIANTS = {"as shot": (0.0, (1.0, 1.0, 1.0)), "1 stop darker": (-1.0, 
 EXPOSURE_FABRICS = ("07_satin5_weft", "00_plain")  # one back-lit (gaps show the light), one front-lit
 
 
-def exposure_invariance(preset: str, folder: Path, *, seed: int = 11, progress=print) -> list[dict]:
+def exposure_invariance(preset: str, folder: Path, *, seed: int = 11, exposure: str = "rig",
+                        progress=print) -> list[dict]:
     """Fit each of :data:`EXPOSURE_FABRICS` (from :func:`weavecap.heightfield_photos.bench_specs`)
     under every :data:`EXPOSURE_VARIANTS` camera (exposure and white balance relative to a
-    neutral one), and measure how far the fitted fabric colours
-    (``params.json``'s body reflection of warp and weft, CIELAB) move: per fabric and family,
-    the largest CIEDE2000 between any two variants, and each variant's fitted gain."""
+    neutral one), with ``weavecap fit --exposure`` ``exposure``, and measure how far the fitted
+    fabric colours (``params.json``'s body reflection of warp and weft, CIELAB) move: per fabric
+    and family, the largest CIEDE2000 between any two variants, and each variant's fitted gain."""
     from skimage.color import deltaE_ciede2000
 
     from .estimate.colour import linear_to_lab
@@ -202,29 +203,30 @@ def exposure_invariance(preset: str, folder: Path, *, seed: int = 11, progress=p
         for label, (stops, cast) in EXPOSURE_VARIANTS.items():  # around a neutral camera
             variant = with_camera(spec, exposure_stops=stops, white_balance=cast)
             path = write_photo(folder / f"{name}_{label.replace(' ', '_').replace('%', '')}.jpg", variant, seed=seed)
-            cap = capture(path, CaptureOptions(quality=preset, seed=0))
+            cap = capture(path, CaptureOptions(quality=preset, seed=0, exposure=exposure))
             if cap.fabric is None:
                 continue
             colours[label] = {f: linear_to_lab(cap.fabric.get(f"{f}.body_reflection")) for f in ("warp", "weft")}
             gains[label] = cap.report["fit"]["light"]["gain"]
-            progress(f"{preset:6s} exposure {name} {label:16s} gain {gains[label]}  "
+            progress(f"{preset:6s} --exposure {exposure} {name} {label:16s} gain {gains[label]}  "
                      f"warp {np.round(colours[label]['warp'], 1)} weft {np.round(colours[label]['weft'], 1)}")
         spread = {}
         for f in ("warp", "weft"):
             labs = [c[f] for c in colours.values()]
             spread[f] = max((float(deltaE_ciede2000(a, b)) for i, a in enumerate(labs) for b in labs[i + 1:]),
                             default=float("nan"))
-        rows.append({"fabric": name, "preset": preset, "fitted": len(colours), "delta_e_max": spread, "gain": gains})
+        rows.append({"fabric": name, "preset": preset, "exposure": exposure, "fitted": len(colours),
+                     "delta_e_max": spread, "gain": gains})
     return rows
 
 
 def exposure_table(rows: list[dict]) -> str:
     """The exposure-invariance table (markdown): largest ΔE2000 between the variants' colours."""
-    out = ["| fabric | preset | variants fitted | warp ΔE2000 (max pair) | weft ΔE2000 (max pair) | fitted gains |",
-           "|" + "---|" * 6]
+    out = ["| fabric | preset | --exposure | variants fitted | warp ΔE2000 (max pair) | weft ΔE2000 (max pair) | "
+           "fitted gains |", "|" + "---|" * 7]
     for r in rows:
         gains = "; ".join(f"{k}: {', '.join(f'{v:.2f}' for v in g)}" for k, g in r["gain"].items())
-        out.append(f"| {r['fabric']} | {r['preset']} | {r['fitted']}/{len(EXPOSURE_VARIANTS)} | "
+        out.append(f"| {r['fabric']} | {r['preset']} | {r.get('exposure', 'rig')} | {r['fitted']}/{len(EXPOSURE_VARIANTS)} | "
                    f"{r['delta_e_max']['warp']:.1f} | {r['delta_e_max']['weft']:.1f} | {gains} |")
     return "\n".join(out)
 

@@ -110,26 +110,28 @@ def plan(start: Fabric, *, cell_px: int, fixed: frozenset = frozenset(), unseen:
     return Plan(start=start, fixed=frozenset(fixed), reasons=reasons)
 
 
-def light_json(rig, moves: dict, *, exposure: float = 1.0) -> dict:
+def light_json(rig, moves: dict, *, exposure: float | None = None) -> dict:
     """report.json's ``fit.light``: the rig and the gain fitted to the photo (its exposure and
     white balance: photo = gain × render at unit gain), and per channel whether the photo
     determined it (the back light through the gaps) or the range rule set it.
 
-    ``exposure``: what the photo was divided by before the fit
+    ``exposure`` (``--exposure photo``): what the photo was divided by before the fit
     (:func:`weavecap.estimate.preestimate.photo_exposure`); ``gain`` includes it, ``rig.gain``
-    (the fit's own) does not."""
+    (the fit's own) does not. None (``--exposure rig``): the photo as shot."""
     solve = moves.get("colour_solve", {})
     determined = solve.get("gain_determined")
     how = ("not solved" if determined is None else
            "the back light seen through the gaps" if all(determined) else
-           "the photo's exposure (its brightest yarn colour at the rig's reach) times the smallest gain (>= 1) "
-           "that keeps every colour within its range: the photo shows no reference"
+           ("" if exposure is None else "the photo's exposure (its brightest yarn colour at the rig's reach) times ")
+           + "the smallest gain (>= 1) that keeps every colour within its range: the photo shows no reference"
            if not any(determined) else "the gaps for the channels marked determined, the range rule for the rest")
-    gain = exposure * np.asarray(rig.gain, np.float64)
-    return {"rig": rig.name, "gain": [round(float(v), 4) for v in gain],
-            "photo_exposure": round(float(exposure), 4),
-            "exposure_stops": round(float(np.log2(max(float(np.mean(gain)), 1e-12))), 3),
-            "gain_determined": determined, "gain_from": how}
+    gain = (1.0 if exposure is None else exposure) * np.asarray(rig.gain, np.float64)
+    out = {"rig": rig.name, "gain": [round(float(v), 4) for v in gain],
+           "exposure_stops": round(float(np.log2(max(float(np.mean(gain)), 1e-12))), 3),
+           "gain_determined": determined, "gain_from": how}
+    if exposure is not None:
+        out["photo_exposure"] = round(float(exposure), 4)
+    return out
 
 
 def describe(plan: Plan, result, errors: dict, *, light: str, light_reason: str, spp: int, blur_px: float,
