@@ -80,6 +80,30 @@ def test_mean_repeat_follows_a_drifting_lattice(twill):
     assert np.all(np.isfinite(followed)) and followed.shape == model.shape
 
 
+def test_a_drift_that_scrambles_the_repeats_is_not_followed(twill, monkeypatch):
+    """A start with the wrong pattern correlates with each repeat at shifts that follow no
+    drift (the independent twill 2/1 S registered on its dual: the repeats' spread about their
+    median 4x the lattice's, half the gradient energy, and the wrong face won the starts on that
+    haze). Such a drift is a mismatch: the median stays the one on the regular lattice."""
+    import weavecap.fit.target as target
+    from weavecap.fit.fidelity import gradient_energy
+
+    fabric, model = twill
+    photo = tiled_photo(model, (6, 6), pitch=C, drift=(0.0, 0.0), origin=(C, C))
+    cells = CellGrid.regular(fabric.shape, C, origin=(C + 0.0, C + 0.0))
+    plain = mean_repeat(photo, cells, C)
+    real_drift = target.lattice_drift
+
+    def scrambled(blocks, model_grey, c):  # what a mismatched model's correlations fit
+        coef, basis = real_drift(blocks, model_grey, c)
+        return coef + np.random.default_rng(3).normal(0.0, 0.4 * c, coef.shape), basis
+
+    monkeypatch.setattr(target, "lattice_drift", scrambled)
+    misled = mean_repeat(photo, cells, C, model=model)
+    assert gradient_energy(misled) >= 0.95 * gradient_energy(plain)
+    assert blurred_mse(model, misled) < 1.2 * blurred_mse(model, plain) + 1e-5
+
+
 def test_lattice_drift_is_zero_on_a_regular_lattice_and_ignores_a_damaged_repeat(twill):
     _, model = twill
     grey = model.mean(axis=2)
