@@ -76,7 +76,8 @@ def test_the_same_fabric_a_stop_darker_or_brighter_gives_the_same_colours(tmp_pa
     colours, gains = {}, {}
     for stops in (-1.0, 0.0, 1.0):
         spec = hp.with_camera(base, exposure_stops=base.exposure_stops + stops)
-        cap = capture(hp.write_photo(tmp_path / f"plain{stops:+.0f}.jpg", spec, seed=3), CaptureOptions(quality="normal", exposure="photo"))
+        cap = capture(hp.write_photo(tmp_path / f"plain{stops:+.0f}.jpg", spec, seed=3),
+                      CaptureOptions(quality="normal", exposure="photo"))
         assert cap.status == "ok", cap.report.get("reason")
         assert cap.report["options"]["exposure"] == "photo"
         colours[stops] = [linear_to_lab(cap.fabric.get(f"{f}.body_reflection")) for f in ("warp", "weft")]

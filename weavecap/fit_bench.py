@@ -226,8 +226,9 @@ def exposure_table(rows: list[dict]) -> str:
            "fitted gains |", "|" + "---|" * 7]
     for r in rows:
         gains = "; ".join(f"{k}: {', '.join(f'{v:.2f}' for v in g)}" for k, g in r["gain"].items())
-        out.append(f"| {r['fabric']} | {r['preset']} | {r.get('exposure', 'rig')} | {r['fitted']}/{len(EXPOSURE_VARIANTS)} | "
-                   f"{r['delta_e_max']['warp']:.1f} | {r['delta_e_max']['weft']:.1f} | {gains} |")
+        out.append(f"| {r['fabric']} | {r['preset']} | {r.get('exposure', 'rig')} | "
+                   f"{r['fitted']}/{len(EXPOSURE_VARIANTS)} | {r['delta_e_max']['warp']:.1f} | "
+                   f"{r['delta_e_max']['weft']:.1f} | {gains} |")
     return "\n".join(out)
 
 

@@ -194,7 +194,7 @@ def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), 
     light, light_reason = ("both", "auto") if options.light == "auto" else (options.light, "given")
     # --exposure photo: the photo is read relative to its own exposure, so that the same fabric
     # shot a stop darker or brighter is fitted alike; the outputs show it as shot
-    as_shot, exposure = prepared, 1.0
+    as_shot, exposure = prepared, None
     if options.exposure == "photo":
         exposure = photo_exposure(prepared.regularized.image, cells, light=light)
         prepared = prepared.exposed(exposure)
@@ -267,14 +267,13 @@ def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), 
         "parameters": {key: {"standard_error": round(se, 4) if np.isfinite(se) else None,
                              "determined": bool(se <= DETERMINED_SE)} for key, se in errors.items()},
     }
-    report["fit"]["light"] = modelled.light_json(fitted.rig, result.moves,
-                                                   exposure=exposure if options.exposure == "photo" else None)
+    report["fit"]["light"] = modelled.light_json(fitted.rig, result.moves, exposure=exposure)
     report["modelled"] = modelled.describe(plan, result, errors, light=light, light_reason=light_reason,
                                            spp=config.spp,
                                            blur_px=blur_px, noise=noise, pitch_px=pitch, plies_flat=config.plies_flat)
     report["timings_s"] = {k: round(v, 3) for k, v in timings.items()}
     error = np.abs(rendered - target) * 4.0
-    images = {"compare.png": exposure * np.concatenate([target, rendered, error], axis=1),
+    images = {"compare.png": (exposure or 1.0) * np.concatenate([target, rendered, error], axis=1),
               "rectified.png": as_shot.rectification.image, "grid.png": as_shot.grid_overlay()}
     return Capture(report=report, fabric=fabric, images=images, history=result.history,
                    captions={"compare.png": faithful.caption()})
