@@ -69,8 +69,10 @@ class FitConfig:
         least this decided keeps the vote's state through the fit: on the independent bench
         photos 98% of such cells were right (92% of those voted 0.3–0.5, 70% under 0.05); on
         the forward model's own renders no cell reaches it (votes ≤ 0.43)
-    start_tie_tolerance : first-round starts tie (and the votes choose among them) only when
-        their losses are also within this fraction of the lowest: with a 2×2 repeat the paired
+    start_tie_tolerance : first-round starts (and the two ways of reading the drift, when they
+        end on different patterns: :func:`weavecap.fit.rounds.settle_by_votes`) tie, and the
+        votes choose among them, only when their losses are also within this fraction of the
+        lowest: with a 2×2 repeat the paired
         test of :func:`weavecap.fit.rounds.same_within_noise` has 4 cells and called a loss 53%
         higher a tie (the real plain W027: the votes took the dual, whose weft collapsed to a
         thin black yarn and the blue was lost); the ties it settled well were 6–11% apart

@@ -38,6 +38,8 @@ class RegisteredFit:
     cells : that registration, a CellGrid in the regularized box's pixels
     blur_px : the blur the renders were compared with
     notes : what the report records (cell shifts per round, the dual choice)
+    held : whether the target's drift was held to the cells' own phase
+        (:func:`weavecap.fit.target.mean_repeat`'s ``hold_phase``)
     """
 
     result: object
@@ -45,6 +47,7 @@ class RegisteredFit:
     cells: object
     blur_px: float
     notes: dict = field(default_factory=dict)
+    held: bool = False
 
     def agreement(self) -> float:
         """How well the fitted pattern agrees with the model-free votes of this round's own
@@ -61,17 +64,19 @@ class RegisteredFit:
         return self.result.rig
 
 
-def _registered_target(prepared, cells, model: np.ndarray, c: int):
+def _registered_target(prepared, cells, model: np.ndarray, c: int, *, held: bool = False):
     """The cells registered on ``model`` (a render of one repeat as photographed, ``c`` px per
-    cell) and the photo's median repeat there: (cells in the regularized box's pixels, shift in
+    cell) and the photo's median repeat there (its drift ``held`` to the cells' phase or not,
+    :func:`weavecap.fit.target.mean_repeat`): (cells in the regularized box's pixels, shift in
     cells, target (n_e*c, n_a*c, 3))."""
     cells, shift = register_cells(prepared.regularized.image, cells, model, c)
-    target = mean_repeat(prepared.rectification.image, shifted(cells, prepared.regularized.box), c, model=model)
+    target = mean_repeat(prepared.rectification.image, shifted(cells, prepared.regularized.box), c, model=model,
+                         hold_phase=held)
     return cells, shift, target
 
 
 def _fit_round(prepared, cells, fabric: wparams.Fabric, rig: LightRig, config: FitConfig, *, c: int,
-               fixed: frozenset[str], seed: int, budget_s: float | None) -> RegisteredFit:
+               fixed: frozenset[str], seed: int, budget_s: float | None, held: bool = False) -> RegisteredFit:
     """Register ``cells`` on a render of ``fabric`` under ``rig``, extract the photo's median
     repeat there, measure the blur, and fit ``fabric`` (and the rig's gain) to it. One render
     serves all three."""
@@ -83,12 +88,12 @@ def _fit_round(prepared, cells, fabric: wparams.Fabric, rig: LightRig, config: F
     model = as_photographed(image, BLUR_CELLS * c, white_level(prepared.rectification.image))
     from ..estimate.orientation import cell_votes
 
-    cells, shift, target = _registered_target(prepared, cells, model, c)
+    cells, shift, target = _registered_target(prepared, cells, model, c, held=held)
     blur_px, _ = photo_blur(image, target, c)
     result = fit(target, fabric, config=config, light=rig, seed=seed, budget_s=budget_s, fixed=fixed,
                  blur_px=blur_px, votes=cell_votes(target, fabric.shape))
     return RegisteredFit(result=result, target=target, cells=cells, blur_px=blur_px,
-                         notes={"cell_shift": [round(v, 3) for v in shift]})
+                         notes={"cell_shift": [round(v, 3) for v in shift]}, held=held)
 
 
 def is_named_weave(pattern: np.ndarray) -> bool:
@@ -168,6 +173,26 @@ def same_within_noise(a: RegisteredFit, b: RegisteredFit, *, spp: int, z: float 
     return bool(abs(d.mean()) <= z * d.std(ddof=1) / np.sqrt(d.size))
 
 
+def settle_by_votes(fits: dict[str, RegisteredFit], chosen: str, config) -> tuple[str, list[str], dict]:
+    """Of ``fits`` (by name), those whose losses the photo cannot tell apart from ``chosen``'s,
+    the lowest (within ``config.start_tie_tolerance`` of it, and within
+    ``config.start_tie_band`` or :func:`same_within_noise`), settled by the model-free votes:
+    the one they back best (:meth:`RegisteredFit.agreement`) when it is backed by more than
+    ``config.vote_margin`` above ``chosen``; votes that say nothing leave the lowest. Returns
+    (the name kept, the tied names, each one's agreement rounded; empty when none tied)."""
+    best = fits[chosen]
+    tied = [name for name in fits if name != chosen
+            and fits[name].result.loss <= best.result.loss * (1.0 + config.start_tie_tolerance)
+            and (fits[name].result.loss <= best.result.loss * (1.0 + config.start_tie_band)
+                 or same_within_noise(best, fits[name], spp=config.spp))]
+    if not tied:
+        return chosen, [], {}
+    agree = {name: fits[name].agreement() for name in [chosen] + tied}
+    backed = max(tied, key=agree.get)
+    kept = backed if agree[backed] > agree[chosen] + config.vote_margin else chosen
+    return kept, tied, {name: round(a, 3) for name, a in agree.items()}
+
+
 def choose_rig(prepared, cells, fabric: wparams.Fabric, *, c: int, spp: int,
                names: tuple[str, ...] = ("both", "front")) -> tuple[str, dict]:
     """The light rig (§6.4) that explains the photo best for ``--light auto``: ``fabric`` under
@@ -219,8 +244,12 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
     best, when it explains it better than the pre-estimate (:func:`best_named_weave`). Starts
     whose losses the photo cannot tell apart (:func:`same_within_noise`, and within
     ``config.start_tie_tolerance`` of the lowest, or within ``config.start_tie_band``) are
-    settled by the model-free votes when they back one by more than ``config.vote_margin``. At the
-    end, a fitted pattern that is no named weave is tried against the best named weave of its
+    settled by the model-free votes when they back one by more than ``config.vote_margin``.
+    After the first round the rounds run twice, on targets whose lattice drift is followed
+    from the model and on targets held to the cells' phase (:func:`mean_repeat`'s
+    ``hold_phase``), and the lower loss goes on — unless the two end on different patterns
+    the photo cannot tell apart, which the votes settle as they do the starts
+    (:func:`settle_by_votes`). At the end, a fitted pattern that is no named weave is tried against the best named weave of its
     shape and against the chosen start's pattern when that was a named weave, each fitted with
     its pattern fixed; one clearly lower (by more than ``config.named_weave_tolerance``) is
     taken, else, of those within it, the one the votes back best, unless they back the custom
@@ -255,7 +284,7 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
         voted = vote_pattern(votes)
         if interlaces(voted) and not any(equal_up_to_shift(voted, f.pattern) for f in starts.values()):
             starts["votes"] = start.replace({"pattern": voted})
-    runs = rounds + len(starts)  # and one more round for a named weave
+    runs = 2 * rounds - 1 + len(starts)  # the rounds both ways, and one more for a named weave
 
     def budget(done: int) -> float | None:
         if options.budget_s is None:
@@ -272,38 +301,60 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
         firsts[name] = _fit_round(prepared, cells, fabric, rig, per_round, c=c, fixed=fixed, seed=options.seed,
                                   budget_s=budget(k))
     chosen = min(firsts, key=lambda name: firsts[name].result.loss)
-    best = firsts[chosen]
-    tied = []
+    tied, agree = [], {}
     if votes is not None and np.any(votes):  # starts the loss cannot tell apart: the votes decide
-        tied = [name for name in firsts if name != chosen
-                and firsts[name].result.loss <= best.result.loss * (1.0 + config.start_tie_tolerance)
-                and (firsts[name].result.loss <= best.result.loss * (1.0 + config.start_tie_band)
-                     or same_within_noise(best, firsts[name], spp=config.spp))]
-        agree = {name: firsts[name].agreement() for name in [chosen] + tied}
-        backed = max(tied, key=agree.get, default=chosen)
-        if agree[backed] > agree[chosen] + config.vote_margin:  # votes that say nothing leave the lowest
-            chosen, best = backed, firsts[backed]
+        chosen, tied, agree = settle_by_votes(firsts, chosen, config)
+    best = firsts[chosen]
     notes = {"cell_shift": [best.notes["cell_shift"]]}
     if explore_patterns:
         notes["start"] = {"chosen": chosen, **{name: round(r.result.loss, 6) for name, r in firsts.items()},
-                          "within_noise": tied,
-                          "votes_agree": {name: round(a, 3) for name, a in agree.items()} if tied else {}}
+                          "within_noise": tied, "votes_agree": agree}
     if votes is not None:
         notes["votes"] = {"pattern": vote_pattern(votes).astype(int).tolist(),
                           "cells": [[round(float(v), 3) for v in row] for row in votes]}
     history = list(best.result.history)
-    k, gain = 1, math.inf
-    while k < rounds or (k < rounds + config.extra_rounds and gain > config.extra_round_gain):
-        if spent():
-            break
-        last = _fit_round(prepared, best.cells, best.result.fabric, best.rig, per_round, c=c, fixed=fixed,
-                          seed=options.seed + k, budget_s=budget(len(starts) + k - 1))
-        notes["cell_shift"].append(last.notes["cell_shift"])
-        history += last.result.history
-        gain = (best.result.loss - last.result.loss) / max(best.result.loss, 1e-12)
-        if last.result.loss < best.result.loss:  # every round scores against the same photo
-            best = last
-        k += 1
+    done = [len(starts)]
+
+    def refine(first: RegisteredFit, held: bool) -> tuple[RegisteredFit, list, list, int]:
+        """The registration rounds after the first, on targets ``held`` or not: (the best
+        round, their steps, their cell shifts, the rounds so far)."""
+        best, steps, shifts, k, gain = first, [], [], 1, math.inf
+        while k < rounds or (k < rounds + config.extra_rounds and gain > config.extra_round_gain):
+            if spent():
+                break
+            last = _fit_round(prepared, best.cells, best.result.fabric, best.rig, per_round, c=c, fixed=fixed,
+                              seed=options.seed + k, budget_s=budget(done[0]), held=held)
+            done[0] += 1
+            shifts.append(last.notes["cell_shift"])
+            steps += last.result.history
+            gain = (best.result.loss - last.result.loss) / max(best.result.loss, 1e-12)
+            if last.result.loss < best.result.loss:  # every round scores against the same photo
+                best = last
+            k += 1
+        return best, steps, shifts, k
+
+    # both ways of reading the drift (:func:`weavecap.fit.target.mean_repeat`'s hold_phase),
+    # each through all the rounds: a fit registered half a cell off settles there, its family
+    # colours averaged, and one round on the held phase from it does not climb out (the
+    # independent twill 2/1 S: 0.0475 against 0.0428)
+    branches = {"followed": refine(best, False)}
+    if rounds > 1 and not spent():
+        branches["held"] = refine(best, True)
+    kept = min(branches, key=lambda name: branches[name][0].result.loss)
+    agree = {}
+    if explore_patterns and len(branches) == 2 and not equal_up_to_shift(
+            *(b[0].result.fabric.pattern for b in branches.values())):
+        # two patterns the loss cannot tell apart: the votes decide, as for the starts (the
+        # independent twill 2/2 Z: held, a twill 3/1 Z 3.9% below the followed 2/2, the truth)
+        kept, _, agree = settle_by_votes({name: b[0] for name, b in branches.items()}, kept, config)
+    best, steps, shifts, k = branches[kept]
+    notes["cell_shift"] += shifts
+    history += steps
+    if len(branches) == 2:
+        held, followed = branches["held"][0], branches["followed"][0]
+        notes["phase_held"] = {"loss": round(held.result.loss, 6), "fitted_loss": round(followed.result.loss, 6),
+                               "taken": kept == "held", "votes_agree": agree,
+                               "steps_not_kept": len(branches["followed" if kept == "held" else "held"][1])}
     if explore_patterns and not spent() and not is_named_weave(best.result.fabric.pattern):
         scored = best_named_weave(prepared, best.cells, best.result.fabric, best.rig, c=c, tolerance=math.inf)
         # the named weave the chosen start had, when the pattern sweeps drifted off it (the
@@ -319,7 +370,7 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
                 break
             tried.append(_fit_round(prepared, best.cells, best.result.fabric.replace({"pattern": named}), best.rig,
                                     per_round, c=c, fixed=fixed | {"pattern"}, seed=options.seed + k,
-                                    budget_s=budget(runs - 1)))
+                                    budget_s=budget(runs - 1), held=best.held))
             history += tried[-1].result.history
         if tried:
             tolerance = config.named_weave_tolerance
@@ -346,4 +397,4 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
     result = dataclasses.replace(best.result, history=history, iterations=len(history),
                                  seconds=time.perf_counter() - t0)
     return RegisteredFit(result=result, target=best.target, cells=shifted(best.cells, prepared.regularized.box),
-                         blur_px=best.blur_px, notes=notes)
+                         blur_px=best.blur_px, notes=notes, held=best.held)

@@ -193,7 +193,8 @@ def lattice_drift(blocks: np.ndarray, model: np.ndarray, c: int) -> tuple[np.nda
     return coef, basis
 
 
-def mean_repeat(image: np.ndarray, cells: CellGrid, c: int, model: np.ndarray | None = None) -> np.ndarray:
+def mean_repeat(image: np.ndarray, cells: CellGrid, c: int, model: np.ndarray | None = None, *,
+                hold_phase: bool = False) -> np.ndarray:
     """The photo's average repeat as a cell canvas: the median over every whole repeat of
     ``image`` (H, W, 3) on the lattice of ``cells`` (a CellGrid in its pixels), one pitch clear
     of the border. Irregularities average out (§4.2's aim) without kernel PCA's variable
@@ -215,6 +216,17 @@ def mean_repeat(image: np.ndarray, cells: CellGrid, c: int, model: np.ndarray | 
     the drift is real it may still spread the repeats a little more — noise, the resampling —
     while it puts the median where the model is: +3–10% on the own-render twill, which the
     plain median cost 21 dB.)
+
+    With ``hold_phase`` the drift is measured from the cells' own repeat, as
+    :func:`register_cells` placed it, rather than from the model: registration takes the whole
+    cells from the correlation with the model but the fraction from the gaps, and the drift's
+    common part (every repeat's correlation shift alike) would put the correlation's fraction
+    back. Which is right depends on the model: a model unlike the photo correlates with every
+    repeat alike half a cell off (the independent twill 2/1 S: its median then 10-12 px of 24
+    off the gaps, and each family's fitted colour an average of both; held, 0.49 / 0.86 ΔE
+    against 13.0 / 7.1), while a render close to the photo correlates more exactly than
+    the gaps are found (the own-render twill 2/1, held in every round: 12.6 dB against 35.0).
+    :func:`weavecap.fit.rounds.fit_registered` tries both and keeps the lower loss.
     Returns (n_e*c, n_a*c, 3) float32.
     """
     n_e, n_a = cells.shape
@@ -234,6 +246,9 @@ def mean_repeat(image: np.ndarray, cells: CellGrid, c: int, model: np.ndarray | 
         y, x = np.meshgrid((np.arange(ky * h) + 0.5) / h, (np.arange(kx * w) + 0.5) / w, indexing="ij")
         field = (basis(y, x) @ coef).reshape(ky * h, kx * w, 2)  # canvas px
         scale = np.array([np.diff(lattice.rows).mean(), np.diff(lattice.cols).mean()]) / c  # image px per canvas px
+        if hold_phase:  # the drift from where the cells' own repeat is, not from the model
+            field = field - correlation_shift(cell_canvas(image, cells, c).mean(axis=2),
+                                              np.asarray(model).mean(axis=2))
         canvas = cell_canvas(image, lattice, c, offset=np.moveaxis(field * scale, 2, 0))
         followed, followed_spread = median_and_spread(canvas)
         if followed_spread <= MISMATCH_SPREAD * spread:
