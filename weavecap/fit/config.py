@@ -72,11 +72,11 @@ class FitConfig:
     start_tie_tolerance : first-round starts (and the two ways of reading the drift, when they
         end on different patterns: :func:`weavecap.fit.rounds.settle_by_votes`) tie, and the
         votes choose among them, only when their losses are also within this fraction of the
-        lowest: with a 2×2 repeat the paired
-        test of :func:`weavecap.fit.rounds.same_within_noise` has 4 cells and called a loss 53%
-        higher a tie (the real plain W027: the votes took the dual, whose weft collapsed to a
-        thin black yarn and the blue was lost); the ties it settled well were 6–11% apart
-        (on the bench and the real photos), the harmful ones 18–53%
+        lowest: with a 2×2 repeat the paired test of
+        :func:`weavecap.fit.rounds.same_within_noise` has 4 cells and called a loss 53% higher a
+        tie (the real plain W027: the votes took the dual, whose weft collapsed to a thin black
+        yarn and the blue was lost); the ties it settled well were 6–11% apart (on the bench and
+        the real photos), the harmful ones 18–53%
     start_tie_band : starts within this fraction of the lowest loss tie even where the paired
         test tells them apart: the model differs from a real photo by more than its noise, and a
         wrong face can fit a little better (the independent twill 2/2 Z: its votes' pattern, the

@@ -245,19 +245,18 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
     whose losses the photo cannot tell apart (:func:`same_within_noise`, and within
     ``config.start_tie_tolerance`` of the lowest, or within ``config.start_tie_band``) are
     settled by the model-free votes when they back one by more than ``config.vote_margin``.
-    After the first round the rounds run twice, on targets whose lattice drift is followed
-    from the model and on targets held to the cells' phase (:func:`mean_repeat`'s
-    ``hold_phase``), and the lower loss goes on — unless the two end on different patterns
-    the photo cannot tell apart, which the votes settle as they do the starts
-    (:func:`settle_by_votes`). At the end, a fitted pattern that is no named weave is tried against the best named weave of its
-    shape and against the chosen start's pattern when that was a named weave, each fitted with
-    its pattern fixed; one clearly lower (by more than ``config.named_weave_tolerance``) is
-    taken, else, of those within it, the one the votes back best, unless they back the custom
-    pattern better. The candidate is always fitted: scored with the custom fit's
-    values, the real satin W108's named weave looked worse than its custom 5×5 and was not
-    tried; fitted, its loss was 0.0056 against 0.0133 (18.7 → 22.5 dB). Returns the best
-    round, with ``cells`` in the rectified photo's
-    pixels.
+    After the first round the rounds run twice, on targets whose lattice drift is followed from
+    the model and on targets held to the cells' phase (:func:`mean_repeat`'s ``hold_phase``),
+    and the lower loss goes on — unless the two end on different patterns the photo cannot tell
+    apart, which the votes settle as they do the starts (:func:`settle_by_votes`). At the end, a
+    fitted pattern that is no named weave is tried against the best named weave of its shape and
+    against the chosen start's pattern when that was a named weave, each fitted with its pattern
+    fixed; one clearly lower (by more than ``config.named_weave_tolerance``) is taken, else, of
+    those within it, the one the votes back best, unless they back the custom pattern better.
+    The candidate is always fitted: scored with the custom fit's values, the real satin W108's
+    named weave looked worse than its custom 5×5 and was not tried; fitted, its loss was 0.0056
+    against 0.0133 (18.7 → 22.5 dB). Returns the best round, with ``cells`` in the rectified
+    photo's pixels.
 
     ``rig`` is the light rig to start from (default: ``options.light``'s, at unit gain); the
     gain it carries (the photo's exposure and white balance) is fitted along (unless
@@ -313,18 +312,19 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
         notes["votes"] = {"pattern": vote_pattern(votes).astype(int).tolist(),
                           "cells": [[round(float(v), 3) for v in row] for row in votes]}
     history = list(best.result.history)
-    done = [len(starts)]
+    done = len(starts)  # rounds fitted so far, for the budget
 
     def refine(first: RegisteredFit, held: bool) -> tuple[RegisteredFit, list, list, int]:
         """The registration rounds after the first, on targets ``held`` or not: (the best
         round, their steps, their cell shifts, the rounds so far)."""
+        nonlocal done
         best, steps, shifts, k, gain = first, [], [], 1, math.inf
         while k < rounds or (k < rounds + config.extra_rounds and gain > config.extra_round_gain):
             if spent():
                 break
             last = _fit_round(prepared, best.cells, best.result.fabric, best.rig, per_round, c=c, fixed=fixed,
-                              seed=options.seed + k, budget_s=budget(done[0]), held=held)
-            done[0] += 1
+                              seed=options.seed + k, budget_s=budget(done), held=held)
+            done += 1
             shifts.append(last.notes["cell_shift"])
             steps += last.result.history
             gain = (best.result.loss - last.result.loss) / max(best.result.loss, 1e-12)
