@@ -87,3 +87,24 @@ def test_caption_strip_below_the_image():
     out = captioned(img, "sharpness 0.91  dE2000 warp 2.1 weft 3.4  structure 0.95")
     assert out.shape == (62, 300, 3) and np.all(out[:40] == img)
     assert out[40:].min() < 0.2 and out[40:].max() > 0.9  # dark text on white
+
+
+def test_more_faithful_takes_the_right_colours_but_not_at_the_cost_of_a_blur():
+    """A render whose colours are averaged (a third of the way to the grey mean) against one
+    with the photo's colours: the latter is more faithful. The photo's colours on a blurred
+    canvas are not: the sharpness lost outweighs them. A capture is never more faithful than
+    itself, and one whose colours only move within a ΔE of 1 is not either."""
+    from weavecap.fit.fidelity import more_faithful
+
+    photo = _canvas(TWILL, RED, BLUE)
+    grey = (RED + BLUE) / 2
+    muted = fidelity(photo, _canvas(TWILL, RED + (grey - RED) / 3, BLUE + (grey - BLUE) / 3), TWILL)
+    right = fidelity(photo, photo, TWILL)
+    blurred = fidelity(photo, gaussian_filter(photo, (1.0, 1.0, 0), mode="wrap"), TWILL)
+    assert min(muted.delta_e.values()) > 5
+    assert more_faithful(right, muted)
+    assert not more_faithful(muted, right)
+    assert not more_faithful(blurred, muted)
+    assert not more_faithful(muted, muted)
+    nearly = fidelity(photo, _canvas(TWILL, RED * 1.01, BLUE * 1.01), TWILL)
+    assert not more_faithful(right, nearly)

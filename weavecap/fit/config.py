@@ -61,10 +61,12 @@ class FitConfig:
         that differs from it in a cell or two
     family_colours : end each fit on the photo's own yarn colours: scale each family's body
         colours so that its mean at the centres of the cells it tops matches the photo's
-        (:func:`weavecap.fit.joint.match_family_colours`, §5.2); kept unless the loss rises
-        by more than ``family_colour_tolerance`` (the rest of the fit then cannot show that
-        colour there: on the independent bench photos the rise was 0–18%, median 3%; on an
-        own-render random 3×3, 14% for 3 dB)
+        (:func:`weavecap.fit.joint.match_family_colours`, §5.2); kept when the loss rises by
+        at most ``family_colour_tolerance`` (on the independent bench photos the rise was
+        0–18%, median 3%; on an own-render random 3×3, 14% for 3 dB), or by more when the
+        capture looks more like the photo for it (:func:`weavecap.fit.fidelity.more_faithful`:
+        the worse family's colour closer, sharpness and structure no worse): the MSE weighs
+        every pixel alike and can trade a yarn's colour for its edges and gaps
     vote_lock : a cell whose model-free vote (:mod:`weavecap.estimate.orientation`) is at
         least this decided keeps the vote's state through the fit: on the independent bench
         photos 98% of such cells were right (92% of those voted 0.3–0.5, 70% under 0.05); on

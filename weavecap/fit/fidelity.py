@@ -20,6 +20,7 @@ A photo compared with itself scores sharpness 1, ΔE 0 and correlation 1.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -124,6 +125,32 @@ def fidelity(photo: np.ndarray, render: np.ndarray, pattern: np.ndarray, *, cent
     sa, sb = ya.std(), yb.std()
     corr = float(np.mean((ya - ya.mean()) * (yb - yb.mean())) / (sa * sb)) if sa > 0 and sb > 0 else float("nan")
     return Fidelity(sharpness=float(sharp), delta_e=de, structure=corr, lab=lab)
+
+
+#: what :func:`more_faithful` lets a capture give up for its colours: sharpness, as
+#: ``|log(sharpness)|`` (0.05: about 5% further from the photo's), and structure correlation
+SHARPNESS_SLACK = 0.05
+STRUCTURE_SLACK = 0.02
+#: the worst family's colour difference must fall by at least this (ΔE2000) to count
+DELTA_E_GAIN = 1.0
+
+
+def more_faithful(now: Fidelity, was: Fidelity) -> bool:
+    """Whether ``now`` looks more like the photo than ``was``: the worse family's colour is
+    closer by at least :data:`DELTA_E_GAIN`, while the sharpness and the structure are no
+    worse beyond :data:`SHARPNESS_SLACK` and :data:`STRUCTURE_SLACK`. A capture's loss can
+    rise while it does (the MSE trades the yarns' colour for their edges and gaps)."""
+    def worst(f: Fidelity) -> float:
+        shown = [v for v in f.delta_e.values() if np.isfinite(v)]
+        return max(shown) if shown else float("nan")
+
+    def off(f: Fidelity) -> float:  # how far the sharpness is from the photo's
+        return abs(math.log(f.sharpness)) if f.sharpness > 0 and np.isfinite(f.sharpness) else math.inf
+
+    if not (np.isfinite(worst(now)) and np.isfinite(worst(was))):
+        return False
+    return (worst(now) <= worst(was) - DELTA_E_GAIN and off(now) <= off(was) + SHARPNESS_SLACK
+            and not now.structure < was.structure - STRUCTURE_SLACK)
 
 
 def captioned(image: np.ndarray, text: str, *, height: int = 22) -> np.ndarray:

@@ -31,13 +31,16 @@ from typing import Callable
 import numpy as np
 import torch
 
-from ..model.render import blur, blurred_mse, gbuffer, mse_and_gradients, render_numpy, white_level
+from ..model.render import (as_photographed, blur, blurred_mse, gbuffer, mse_and_gradients, render_numpy,
+                            white_level)
 from ..model.scene import GEOMETRY_KEYS, FabricScene, LightRig, View, build_scene
 from ..params import CONTINUOUS_KEYS, FIT_RANGES, Fabric
 from .config import FitConfig
 
 DISCRETE_STEPS = {"plies": (1, 1), "fibers": (1, 4)}  # smallest and largest |change| of a proposal
 BODY_COLOUR_KEYS = ("warp.body_reflection", "warp.body_subsurface", "weft.body_reflection", "weft.body_subsurface")
+#: the highlights' colours: a rise of the rig's gain must not brighten them
+SPECULAR_COLOUR_KEYS = ("specular.reflection", "specular.transmission", "specular.transmission_exit")
 #: target pixels at or above this share of the white level are clipped by the camera and say
 #: nothing about a colour that only brightens them: :func:`solve_colours` leaves them out
 CLIPPED_SHARE = 0.98
@@ -346,8 +349,10 @@ def match_family_colours(fs: FabricScene, target: np.ndarray, measure: Callable[
     top. The render is linear in each family's colours, so three renders (both families black,
     each alone at its colour) give a 2 × 2 system per channel. Colours stay within [0, 1];
     with ``gain`` a colour that would pass 1 raises the rig's gain (all channels alike)
-    instead, and every colour comes down by as much. Returns the renders made, the loss
-    before and after, and the scales.
+    instead, and every colour comes down by as much — the highlights' colours too
+    (:data:`SPECULAR_COLOUR_KEYS`), which the gain would otherwise brighten (on a bench photo
+    with its warp at the clamp, a cyan warp's colour had gone into the highlight). Returns
+    the renders made, the loss before and after, and the scales.
     """
     from .fidelity import family_masks
 
@@ -365,30 +370,44 @@ def match_family_colours(fs: FabricScene, target: np.ndarray, measure: Callable[
     # each colour scales along its own direction, or white where it is (nearly) black
     direction = {k: np.where(np.asarray(v, np.float64) > 0.02, np.asarray(v, np.float64), 1.0)
                  for k, v in before.items()}
-    for k in before:
-        fs.set(k, (0.0, 0.0, 0.0))
-    dark = shown()
-    parts = {}
-    for f in families:
-        for k in keys[f]:
-            fs.set(k, tuple(direction[k]))
-        parts[f] = shown() - dark
-        for k in keys[f]:
-            fs.set(k, (0.0, 0.0, 0.0))
     target = np.asarray(target, np.float64)
-    scale = np.ones((len(families), 3))
-    for ch in range(3):
-        a = np.array([[parts[g][..., ch][masks[f]].mean() for g in families] for f in families])
-        b = np.array([target[..., ch][masks[f]].mean() - dark[..., ch][masks[f]].mean() for f in families])
-        if abs(np.linalg.det(a)) > 1e-12:
-            scale[:, ch] = np.clip(np.linalg.solve(a, b), 0.0, None)
-    wanted = {k: direction[k] * scale[i] for i, f in enumerate(families) for k in keys[f]}
-    over = max(1.0, max(float(v.max()) for v in wanted.values())) if gain else 1.0
+
+    def wanted() -> tuple[dict, np.ndarray]:
+        """The body colours that match the photo at the centres, at the current rig and
+        highlights (the render is linear in each family's colours: a 2 × 2 system per channel)."""
+        for k in before:
+            fs.set(k, (0.0, 0.0, 0.0))
+        dark = shown()
+        parts = {}
+        for f in families:
+            for k in keys[f]:
+                fs.set(k, tuple(direction[k]))
+            parts[f] = shown() - dark
+            for k in keys[f]:
+                fs.set(k, (0.0, 0.0, 0.0))
+        scale = np.ones((len(families), 3))
+        for ch in range(3):
+            a = np.array([[parts[g][..., ch][masks[f]].mean() for g in families] for f in families])
+            b = np.array([target[..., ch][masks[f]].mean() - dark[..., ch][masks[f]].mean() for f in families])
+            if abs(np.linalg.det(a)) > 1e-12:
+                scale[:, ch] = np.clip(np.linalg.solve(a, b), 0.0, None)
+        return {k: direction[k] * scale[i] for i, f in enumerate(families) for k in keys[f]}, scale
+
+    colours, scale = wanted()
+    renders = 1 + len(families)
+    over = max(1.0, max(float(v.max()) for v in colours.values())) if gain else 1.0
     if over > 1.0:
         fs.rig = fs.rig.with_gain(np.asarray(fs.rig.gain) * over)
-    for k, v in wanted.items():
-        fs.set(k, tuple(np.clip(v / over, 0.0, 1.0)))
-    return {"renders": 2 + len(families), "loss_before": loss_before, "loss_after": measure(),
+        for k in SPECULAR_COLOUR_KEYS:
+            if k in fs.values and k not in fs.textures:
+                fs.set(k, tuple(np.asarray(fs.to_fabric().get(k), np.float64) / over))
+        # the transmitted highlights share the light with the body lobes: dimmer, they leave
+        # the bodies brighter, so the colours are solved again at the new gain
+        colours, scale = wanted()
+        renders += 1 + len(families)
+    for k, v in colours.items():
+        fs.set(k, tuple(np.clip(v, 0.0, 1.0)))
+    return {"renders": renders + 1, "loss_before": loss_before, "loss_after": measure(),
             "scale": {f: [round(float(v), 4) for v in scale[i]] for i, f in enumerate(families)}}
 
 
@@ -576,16 +595,27 @@ def fit(target: np.ndarray, start: Fabric, *, config: FitConfig = FitConfig(), l
         best_loss, best_fabric, best_rig = final, fs.to_fabric(), fs.rig
     moves = {k: {"proposed": v[0], "accepted": v[1]} for k, v in {**annealer.moves, **search.moves}.items()}
     if config.family_colours and colour_keys:  # end on the photo's own yarn colours
+        from .fidelity import fidelity, more_faithful
+
         fs = build_scene(best_fabric, fs.view, light=best_rig)
-        rig_before_match = best_rig
+        white = white_level(target)
+
+        def faithful():  # the figures the report gives, on the scene's current state
+            return fidelity(target, as_photographed(render_numpy(fs, spp=config.spp), blur_px, white),
+                            fs.fabric.pattern)
+
+        rig_before_match, was = best_rig, faithful()
         pinned = bool(solves) and any(solves[-1].get("gain_determined", []))  # the gaps fixed the gain
         matched = match_family_colours(fs, target, measure, spp=config.spp, blur_px=blur_px,
                                        gain=fit_gain and not pinned)
-        best_rig = fs.rig
+        best_rig, now = fs.rig, faithful()
         rise = matched["loss_after"] / max(matched["loss_before"], 1e-12) - 1
-        kept = rise <= config.family_colour_tolerance
-        moves["family_colours"] = {"renders": matched["renders"], "scale": matched["scale"],
-                                   "loss_rise": round(rise, 4), "kept": kept}
+        kept = rise <= config.family_colour_tolerance or more_faithful(now, was)
+        moves["family_colours"] = {"renders": matched["renders"] + 2, "scale": matched["scale"],
+                                   "loss_rise": round(rise, 4), "kept": kept,
+                                   "delta_e_before": {k: round(v, 2) for k, v in was.delta_e.items() if np.isfinite(v)},
+                                   "delta_e_after": {k: round(v, 2) for k, v in now.delta_e.items() if np.isfinite(v)},
+                                   "sharpness": [round(was.sharpness, 3), round(now.sharpness, 3)]}
         if kept:
             best_loss, best_fabric = matched["loss_after"], fs.to_fabric()
         else:
