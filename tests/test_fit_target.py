@@ -485,6 +485,94 @@ def test_votes_read_which_yarn_runs_on_top():
     assert agreement(pattern, np.zeros(shape)) == 0.5
 
 
+def _biased(votes, gain):
+    """The votes of the same photo with its horizontal edges ``gain`` times as strong (a light
+    across the wefts, wider gaps between them): v = (H - V) / (H + V) with H scaled."""
+    h, v = 1.0 + votes, 1.0 - votes
+    return (gain * h - v) / (gain * h + v)
+
+
+def test_a_twill_and_its_other_face_are_told_apart_whatever_the_light():
+    """A twill 3/1 and its other face 1/3 differ in every cell; with the horizontal edges
+    twice as strong, every cell of the 3/1 votes "weft on top", so the signs alone give no
+    interlacing pattern. The votes' pattern across the cells still does."""
+    from weavecap.estimate.orientation import cell_votes, decode_pattern, vote_pattern, vote_residual
+    from weavecap.estimate.sampling import twill
+    from weavecap.estimate.weave_name import equal_up_to_shift
+
+    truth = twill(3, 1, step=1)
+    votes = _biased(cell_votes(_weave_canvas(truth), truth.shape), 2.0)
+    assert vote_pattern(votes).all()  # the signs say every weft is on top
+    assert vote_residual(truth, votes) < 0.01
+    for other in (1 - truth, twill(2, 2, step=1), twill(3, 1, step=-1)):
+        assert vote_residual(other, votes) > 5 * vote_residual(truth, votes)
+    assert equal_up_to_shift(decode_pattern(votes)[0], truth)
+
+
+@pytest.mark.parametrize("shape, gain", [((4, 6), 1.0), ((6, 6), 0.5), ((3, 5), 2.5)])
+def test_decode_pattern_recovers_random_weaves(shape, gain):
+    from weavecap.estimate.orientation import aligned_votes, decode_pattern, vote_residual
+    from weavecap.estimate.sampling import interlaces
+    from weavecap.estimate.weave_name import equal_up_to_shift
+
+    rng = np.random.default_rng(sum(shape))
+    pattern = (rng.random(shape) < 0.5).astype(np.uint8)
+    while not interlaces(pattern):
+        pattern = (rng.random(shape) < 0.5).astype(np.uint8)
+    votes = _biased(aligned_votes(np.roll(_weave_canvas(pattern), (5, 9), axis=(0, 1)), shape), gain)
+    decoded, misfit = decode_pattern(votes)
+    assert equal_up_to_shift(decoded, pattern) and interlaces(decoded)
+    assert misfit == pytest.approx(vote_residual(pattern, votes), abs=1e-9)
+
+
+def test_decode_pattern_on_votes_that_say_nothing():
+    """A flat photo votes 0 everywhere: some interlacing pattern comes back, finite; a pattern
+    of another shape than the votes, or votes that are not finite, are errors."""
+    from weavecap.estimate.orientation import decode_pattern, expected_votes, vote_residual
+    from weavecap.estimate.sampling import interlaces
+
+    for shape in ((2, 2), (3, 3), (2, 5)):
+        decoded, misfit = decode_pattern(np.zeros(shape))
+        assert decoded.shape == shape and interlaces(decoded) and np.isfinite(misfit)
+    assert np.isfinite(expected_votes(np.ones((3, 3)), gain=np.exp(1.2), floor=0.0)).all()  # no 0/0
+    with pytest.raises(ValueError, match="shape"):
+        vote_residual(np.eye(3), np.zeros((4, 4)))
+    with pytest.raises(ValueError, match="finite"):
+        decode_pattern(np.array([[0.2, np.nan], [0.1, 0.3]]))
+
+
+@pytest.mark.parametrize("photo, loss_ratio, taken", [
+    ("twill22", 1.4, True),   # the independent twill 2/2 S, fitted as a 3/1 S: its truth at 1.38x the loss
+    ("twill22", 2.5, False),  # past edge_loss_cap: the fitted pattern stays
+    ("plain", 1.0, None),     # the edges decode a plain weave, a shorter repeat than the photo's: not tried
+])
+def test_the_photo_edges_have_the_last_word_on_the_pattern(monkeypatch, photo, loss_ratio, taken):
+    from weavecap.estimate.sampling import twill
+    from weavecap.estimate.weave_name import equal_up_to_shift
+    from weavecap.fit import rounds
+    from weavecap.fit.joint import FitResult
+
+    truth = twill(2, 2, step=1) if photo == "twill22" else np.tile(np.array([[1, 0], [0, 1]], np.uint8), (2, 2))
+    target = _weave_canvas(truth)
+    fitted = params.load(FIXTURES / "plain.json").replace({"pattern": twill(3, 1, step=1)})
+
+    def fit_of(fabric, loss):
+        result = FitResult(fabric=fabric, loss=loss, history=[loss], iterations=1, seconds=0.0, stopped="iterations")
+        return rounds.RegisteredFit(result=result, target=target, cells=None, blur_px=0.0)
+
+    tried = []
+    monkeypatch.setattr(rounds, "_fit_round", lambda prepared, cells, fabric, rig, config, **kw:
+                        tried.append(fabric) or fit_of(fabric, 0.01 * loss_ratio))
+    best = fit_of(fitted, 0.01)
+    kept, note = rounds.edge_check(None, best, PRESETS["normal"], c=16, fixed=frozenset(), seed=0, budget_s=None)
+    assert note["fitted_misfit"] > 2 * note["misfit"] and equal_up_to_shift(np.array(note["pattern"]), truth)
+    if taken is None:
+        assert not tried and kept is best and not note["taken"]
+        return
+    assert len(tried) == rounds.EDGE_ROUNDS and all(equal_up_to_shift(f.pattern, truth) for f in tried)
+    assert note["taken"] is taken and (kept is not best) is taken
+
+
 def test_the_blur_is_capped_where_the_render_gets_as_smooth_as_the_photo(twill):
     from weavecap.fit.target import photo_blur, sharpness_blur
     from weavecap.model.render import blur
