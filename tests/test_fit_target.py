@@ -545,6 +545,7 @@ def test_decode_pattern_on_votes_that_say_nothing():
     ("twill22", 1.4, True),   # the independent twill 2/2 S, fitted as a 3/1 S: its truth at 1.38x the loss
     ("twill22", 2.5, False),  # past edge_loss_cap: the fitted pattern stays
     ("plain", 1.0, None),     # the edges decode a plain weave, a shorter repeat than the photo's: not tried
+    ("custom", 1.0, None),    # a custom 4x4 is not tried against a named weave, far likelier a priori
 ])
 def test_the_photo_edges_have_the_last_word_on_the_pattern(monkeypatch, photo, loss_ratio, taken):
     from weavecap.estimate.sampling import twill
@@ -552,7 +553,8 @@ def test_the_photo_edges_have_the_last_word_on_the_pattern(monkeypatch, photo, l
     from weavecap.fit import rounds
     from weavecap.fit.joint import FitResult
 
-    truth = twill(2, 2, step=1) if photo == "twill22" else np.tile(np.array([[1, 0], [0, 1]], np.uint8), (2, 2))
+    truth = {"twill22": twill(2, 2, step=1), "plain": np.tile(np.array([[1, 0], [0, 1]], np.uint8), (2, 2)),
+             "custom": np.array([[1, 0, 0, 1], [0, 1, 1, 1], [1, 1, 0, 0], [0, 0, 1, 0]], np.uint8)}[photo]
     target = _weave_canvas(truth)
     fitted = params.load(FIXTURES / "plain.json").replace({"pattern": twill(3, 1, step=1)})
 
