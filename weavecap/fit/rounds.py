@@ -200,27 +200,29 @@ def settle_by_votes(fits: dict[str, RegisteredFit], chosen: str, config) -> tupl
 
 def edge_check(prepared, best: RegisteredFit, config: FitConfig, *, c: int, fixed: frozenset[str], seed: int,
                budget_s: float | None) -> tuple[RegisteredFit, dict]:
-    """The last word on the pattern, from the photo's edges (issue 11): the pattern the
-    model-free votes of ``best``'s target decode to (:func:`weavecap.estimate.orientation.decode_pattern`)
-    against the fitted one.
+    """The last word on the pattern (Wu et al. 2025 §5.1's question, issue 11), from the photo's
+    edges: the pattern the model-free votes of ``best``'s target decode to
+    (:func:`weavecap.estimate.orientation.decode_pattern`) against the fitted one.
 
     The loss compares the photo with the forward model's render, and where the model renders a
     fabric unlike the photo (other shading, near-identical yarn colours) a wrong face or float
-    length can fit better: the independent twill 2/2 S fitted as a twill 3/1 S at half the MSE
-    of its truth. The votes' pattern across the cells does not depend on the model. When the
-    decoded pattern explains the votes better than the fitted one by more than
-    ``config.edge_margin`` (a factor), it is fitted with its pattern fixed (:data:`EDGE_ROUNDS`
-    rounds, the lower loss kept) and taken when the
-    product of its loss and its vote misfit (:func:`weavecap.estimate.orientation.vote_residual`)
-    is the lower — each a likelihood of its own, weighed alike — and its loss is at most
-    ``config.edge_loss_cap`` times the fitted one's. A decoded pattern that repeats sooner than
-    the photo's repeat is not tried: preparation measured the period on the whole photo, and
-    the votes of the forward model's own renders of a satin 8 and a basket 2/2 (their yarns
-    drawn closer than the vote's border model expects) decoded to a plain weave, which the
-    product took at 1.6 and 4.2 times the loss. Nor is a custom pattern tried against a named
-    weave, far likelier a priori (:func:`fit_registered`'s named-weave stage): the real satin
-    W108, a grey mottle with faint diagonals, decoded to a custom 5×5 that the product took at
-    1.4 times the loss (sharpness 1.02 → 0.19). Returns the fit kept and the report's note."""
+    length can fit better: the independent twill 2/2 S was fitted as a twill 3/1 S, its truth
+    fitted with the pattern fixed left 1.4 times the loss. The votes' pattern across the cells
+    does not depend on the model. When the decoded pattern explains the votes better than the
+    fitted one by more than ``config.edge_margin`` (a factor), it is fitted with its pattern
+    fixed (:data:`EDGE_ROUNDS` rounds, the lower loss kept) and taken when the product of its
+    loss and its vote misfit (:func:`weavecap.estimate.orientation.vote_residual`) is the lower
+    — each a likelihood of its own, weighed alike — and its loss is at most
+    ``config.edge_loss_cap`` times the fitted one's.
+
+    A decoded pattern that repeats sooner than the photo's repeat is not tried: preparation
+    measured the period on the whole photo, and the votes of the forward model's own renders of
+    a satin 8 and a basket 2/2 (their yarns drawn closer than the votes' border model expects)
+    decoded to a plain weave, which the product took at 1.6 and 4.2 times the loss. Nor is a
+    custom pattern tried against a named weave, far likelier a priori (:func:`fit_registered`'s
+    named-weave stage): the real satin W108, a grey mottle with faint diagonals, decoded to a
+    custom 5×5 that the product took at 1.4 times the loss (sharpness 1.02 → 0.19). Returns the
+    fit kept and the report's note (``pre_estimation.edges``)."""
     from ..estimate.orientation import aligned_votes, decode_pattern, vote_residual
     from ..estimate.weave_name import equal_up_to_shift, minimal_repeat
 
