@@ -91,7 +91,6 @@ def agreement(pattern: np.ndarray, votes: np.ndarray) -> float:
     return float(0.5 + 0.5 * signed.sum() / total)
 
 
-
 # ------------------------------------------------------------------ what a pattern's votes look like
 
 #: the ratio of the two axes' edge strengths that :func:`vote_residual` allows (the light's
@@ -165,11 +164,11 @@ def decode_pattern(votes: np.ndarray) -> tuple[np.ndarray, float]:
     found without any model of the yarns' looks: greedy single-cell flips (every weft and warp
     keeps both states) from the votes cut at each of their values (an offset hides the sign,
     not the order), from a diagonal each way and from a checkerboard; the lowest
-    :func:`vote_misfit` wins. Returns (pattern (n_e, n_a) uint8 in the votes' phase, its misfit). On the final targets
-    of the independent bench photos (main's fits of session 12) it gave the true pattern on 17
-    of 18, faces, directions and a random 6×6 included (the fits had 7 wrong); the random 8×8's
-    target was too far off to vote."""
-    from .sampling import interlaces
+    :func:`vote_misfit` wins. Returns (pattern (n_e, n_a) uint8 in the votes' phase, its
+    misfit). On the final targets of the independent bench photos (main's fits of session 12)
+    it gave the true pattern on 17 of 18, faces, directions and a random 6×6 included (the fits
+    had 7 wrong); the random 8×8's target was too far off to vote."""
+    from .sampling import interlacing
 
     v = np.asarray(votes, np.float64)
     if v.ndim != 2 or not np.isfinite(v).all():
@@ -180,14 +179,14 @@ def decode_pattern(votes: np.ndarray) -> tuple[np.ndarray, float]:
     starts.append(((i + j) % 2).astype(np.uint8))
     seen, best = set(), (None, np.inf)
     for p in starts:
-        if p.tobytes() in seen or not interlaces(p):
+        if p.tobytes() in seen or not interlacing(p):
             continue
         seen.add(p.tobytes())
         misfit = float(vote_misfit(p, v))
         while True:  # flip the one cell that lowers the misfit most, until none does
             flips = np.repeat(p[None], p.size, axis=0)
             flips.reshape(p.size, -1)[np.arange(p.size), np.arange(p.size)] ^= 1
-            ok = np.array([interlaces(q) for q in flips])
+            ok = interlacing(flips)
             if not ok.any():
                 break
             scores = np.where(ok, vote_misfit(flips, v), np.inf)

@@ -62,9 +62,14 @@ def regular_weaves(shape: tuple[int, int]) -> list[np.ndarray]:
 
 def interlaces(pattern: np.ndarray) -> bool:
     """Every weft and every warp has both states (no yarn floats over the whole repeat)."""
-    p = np.asarray(pattern)
-    return bool(p.min(axis=1).max() == 0 and p.max(axis=1).min() == 1
-                and p.min(axis=0).max() == 0 and p.max(axis=0).min() == 1)
+    return bool(interlacing(pattern))
+
+
+def interlacing(patterns: np.ndarray) -> np.ndarray:
+    """:func:`interlaces` of each pattern of a stack (..., n_e, n_a): a bool array (...,)."""
+    p = np.asarray(patterns)
+    return ((p.min(axis=-1).max(axis=-1) == 0) & (p.max(axis=-1).min(axis=-1) == 1)
+            & (p.min(axis=-2).max(axis=-1) == 0) & (p.max(axis=-2).min(axis=-1) == 1))
 
 
 def random_binary(rng: np.random.Generator, shape: tuple[int, int]) -> np.ndarray:
