@@ -665,3 +665,68 @@ def test_votes_settle_tied_starts_only_when_they_back_one(monkeypatch, losses, a
     out = rounds.fit_registered(prepared, cells, start, pipeline.CaptureOptions(), c=8, fixed=frozenset(),
                                   explore_patterns=True)
     assert out.notes["start"]["within_noise"] and out.notes["start"]["chosen"] == chosen
+
+
+@pytest.mark.parametrize("radii, fixed, losses, taken", [
+    ((1.0, 4.0), frozenset(), (0.012, 0.008), True),    # the independent twill 1/3 S's warp: refitted wide
+    ((1.0, 4.0), frozenset(), (0.012, 0.011), False),   # the thin yarn explains the photo better: kept
+    ((2.5, 4.0), frozenset(), (0.005, 0.005), None),    # within widen_ratio of each other: not tried
+    ((1.0, 4.0), frozenset({"warp.radius"}), (0.005, 0.005), None),  # a radius the plan holds: not tried
+])
+def test_a_family_fitted_far_thinner_than_the_other_is_refitted_wide(monkeypatch, radii, fixed, losses, taken):
+    from weavecap.fit import rounds
+    from weavecap.fit.joint import FitResult
+
+    fitted = params.load(FIXTURES / "plain.json").replace({"warp.radius": radii[0], "weft.radius": radii[1]})
+
+    def fit_of(fabric, loss):
+        result = FitResult(fabric=fabric, loss=loss, history=[loss], iterations=1, seconds=0.0, stopped="iterations")
+        return rounds.RegisteredFit(result=result, target=None, cells=None, blur_px=0.0)
+
+    tried = []
+
+    def fake_round(prepared, cells, fabric, rig, config, *, fixed, **kw):
+        tried.append((fabric.warp.radius, fabric.weft.radius, "warp.radius" in fixed and "weft.radius" in fixed))
+        return fit_of(fabric, losses[len(tried) - 1])
+
+    monkeypatch.setattr(rounds, "_fit_round", fake_round)
+    best = fit_of(fitted, 0.01)
+    kept, note = rounds.widen_check(None, best, PRESETS["normal"], c=16, fixed=fixed, seed=0, budget_s=None)
+    if taken is None:
+        assert not tried and kept is best and note is None
+        return
+    assert tried == [(4.0, 4.0, True), (4.0, 4.0, False)]  # held at the wider radius, then free
+    assert note["taken"] is taken and note["radii"] == [1.0, 4.0] and (kept is not best) is taken
+    assert kept.result.loss == (min(losses) if taken else 0.01)
+    assert len(kept.result.history) == (2 if taken else 1)  # both refitted rounds' steps are kept
+
+
+def test_the_decoded_pattern_is_also_tried_with_a_thin_family_widened(monkeypatch):
+    """The independent satin 8 weft-faced: its decode, the truth, at the fit's radii 1.9 and 4.5
+    scored 1.28 times the fitted loss and was refused; widened, 1.08 times, and taken."""
+    from weavecap.estimate.sampling import twill
+    from weavecap.estimate.weave_name import equal_up_to_shift
+    from weavecap.fit import rounds
+    from weavecap.fit.joint import FitResult
+
+    truth = twill(2, 2, step=1)
+    target = _weave_canvas(truth)
+    fitted = params.load(FIXTURES / "plain.json").replace(
+        {"pattern": twill(3, 1, step=1), "warp.radius": 1.9, "weft.radius": 4.5})
+
+    def fit_of(fabric, loss):
+        result = FitResult(fabric=fabric, loss=loss, history=[loss], iterations=1, seconds=0.0, stopped="iterations")
+        return rounds.RegisteredFit(result=result, target=target, cells=None, blur_px=0.0)
+
+    tried = []
+
+    def fake_round(prepared, cells, fabric, rig, config, *, fixed, **kw):
+        tried.append((fabric.warp.radius, "warp.radius" in fixed))
+        return fit_of(fabric, 0.0108 if fabric.warp.radius == 4.5 else 0.0128)
+
+    monkeypatch.setattr(rounds, "_fit_round", fake_round)
+    best = fit_of(fitted, 0.01)
+    kept, note = rounds.edge_check(None, best, PRESETS["normal"], c=16, fixed=frozenset(), seed=0, budget_s=None)
+    assert tried == [(1.9, False), (1.9, False), (4.5, True), (4.5, False)]  # as fitted, then widened and held once
+    assert note["taken"] and note["widened"] and note["loss"] == 0.0108
+    assert equal_up_to_shift(kept.result.fabric.pattern, truth) and kept.result.fabric.warp.radius == 4.5

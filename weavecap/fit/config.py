@@ -94,6 +94,8 @@ class FitConfig:
         fitted one's)
     edge_loss_cap : the decoded pattern is taken only if its loss is at most this many times
         the fitted one's (on the independent bench the right decodes rose by 1.08–1.38)
+    widen_ratio : a fitted yarn radius under this share of the other family's is refitted at
+        the other's (:func:`weavecap.fit.rounds.widen_check`; 0 never)
     """
 
     iterations: int = 120
@@ -127,6 +129,7 @@ class FitConfig:
     start_tie_band: float = 0.10
     edge_margin: float = 1.1
     edge_loss_cap: float = 2.0
+    widen_ratio: float = 0.5
 
     def with_(self, **changes) -> "FitConfig":
         return replace(self, **changes)
