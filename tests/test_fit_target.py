@@ -3,6 +3,7 @@ lattices and known saturation."""
 
 from __future__ import annotations
 
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -485,6 +486,16 @@ def test_votes_read_which_yarn_runs_on_top():
     assert agreement(pattern, np.zeros(shape)) == 0.5
 
 
+def _registered_fit(fabric, loss, *, target):
+    """A :class:`weavecap.fit.rounds.RegisteredFit` of ``fabric`` at ``loss`` on ``target``, as
+    a faked round returns it."""
+    from weavecap.fit import rounds
+    from weavecap.fit.joint import FitResult
+
+    result = FitResult(fabric=fabric, loss=loss, history=[loss], iterations=1, seconds=0.0, stopped="iterations")
+    return rounds.RegisteredFit(result=result, target=target, cells=None, blur_px=0.0)
+
+
 def _biased(votes, gain):
     """The votes of the same photo with its horizontal edges ``gain`` times as strong (a light
     across the wefts, wider gaps between them): v = (H - V) / (H + V) with H scaled."""
@@ -551,16 +562,12 @@ def test_the_photo_edges_have_the_last_word_on_the_pattern(monkeypatch, photo, l
     from weavecap.estimate.sampling import twill
     from weavecap.estimate.weave_name import equal_up_to_shift
     from weavecap.fit import rounds
-    from weavecap.fit.joint import FitResult
 
     truth = {"twill22": twill(2, 2, step=1), "plain": np.tile(np.array([[1, 0], [0, 1]], np.uint8), (2, 2)),
              "custom": np.array([[1, 0, 0, 1], [0, 1, 1, 1], [1, 1, 0, 0], [0, 0, 1, 0]], np.uint8)}[photo]
     target = _weave_canvas(truth)
+    fit_of = partial(_registered_fit, target=target)
     fitted = params.load(FIXTURES / "plain.json").replace({"pattern": twill(3, 1, step=1)})
-
-    def fit_of(fabric, loss):
-        result = FitResult(fabric=fabric, loss=loss, history=[loss], iterations=1, seconds=0.0, stopped="iterations")
-        return rounds.RegisteredFit(result=result, target=target, cells=None, blur_px=0.0)
 
     tried = []
     monkeypatch.setattr(rounds, "_fit_round", lambda prepared, cells, fabric, rig, config, **kw:
@@ -675,13 +682,9 @@ def test_votes_settle_tied_starts_only_when_they_back_one(monkeypatch, losses, a
 ])
 def test_a_family_fitted_far_thinner_than_the_other_is_refitted_wide(monkeypatch, radii, fixed, losses, taken):
     from weavecap.fit import rounds
-    from weavecap.fit.joint import FitResult
 
     fitted = params.load(FIXTURES / "plain.json").replace({"warp.radius": radii[0], "weft.radius": radii[1]})
-
-    def fit_of(fabric, loss):
-        result = FitResult(fabric=fabric, loss=loss, history=[loss], iterations=1, seconds=0.0, stopped="iterations")
-        return rounds.RegisteredFit(result=result, target=None, cells=None, blur_px=0.0)
+    fit_of = partial(_registered_fit, target=None)
 
     tried = []
 
@@ -707,16 +710,12 @@ def test_the_decoded_pattern_is_also_tried_with_a_thin_family_widened(monkeypatc
     from weavecap.estimate.sampling import twill
     from weavecap.estimate.weave_name import equal_up_to_shift
     from weavecap.fit import rounds
-    from weavecap.fit.joint import FitResult
 
     truth = twill(2, 2, step=1)
     target = _weave_canvas(truth)
+    fit_of = partial(_registered_fit, target=target)
     fitted = params.load(FIXTURES / "plain.json").replace(
         {"pattern": twill(3, 1, step=1), "warp.radius": 1.9, "weft.radius": 4.5})
-
-    def fit_of(fabric, loss):
-        result = FitResult(fabric=fabric, loss=loss, history=[loss], iterations=1, seconds=0.0, stopped="iterations")
-        return rounds.RegisteredFit(result=result, target=target, cells=None, blur_px=0.0)
 
     tried = []
 

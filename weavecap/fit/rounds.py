@@ -1,10 +1,12 @@
-"""The fit's strategy (Wu et al. 2025 §6): registration rounds, starts and the named-weave stage.
+"""The fit's strategy (Wu et al. 2025 §6): registration rounds, starts and the end stages.
 
 :func:`fit_registered` runs the joint fit (:func:`weavecap.fit.joint.fit`) in rounds, each on
 the photo's cells registered against a render of the fabric fitted so far
 (:mod:`weavecap.fit.target`); it tries several starts (the pre-estimate, its dual, the best
-named weave) and ends by fitting the best named weave of the fitted pattern's shape. The
-runner (:func:`weavecap.pipeline.capture`) calls it as one stage.
+named weave, the votes' pattern) and ends with three stages: the best named weave of the
+fitted pattern's shape, a thin yarn family refitted wide (:func:`widen_check`), and the
+pattern the photo's edges decode to (:func:`edge_check`). The runner
+(:func:`weavecap.pipeline.capture`) calls it as one stage.
 """
 
 from __future__ import annotations
@@ -245,12 +247,11 @@ def edge_check(prepared, best: RegisteredFit, config: FitConfig, *, c: int, fixe
     trials = [refit(prepared, best, fabric, config, c=c, fixed=fixed | {"pattern"}, seed=seed,
                     budget_s=None if budget_s is None else budget_s / len(starts), rounds=EDGE_ROUNDS, hold_first=hold)
               for fabric, hold in starts]
-    wide_won = min(range(len(trials)), key=lambda n: trials[n].result.loss) == 1
-    trial = trials[1] if wide_won else trials[0]
+    trial = min(trials, key=lambda fit: fit.result.loss)
     taken = (trial.result.loss * misfit < best.result.loss * fitted_misfit
              and trial.result.loss <= best.result.loss * config.edge_loss_cap)
     note.update(loss=round(trial.result.loss, 6), fitted_loss=round(best.result.loss, 6), taken=bool(taken),
-                widened=wide_won)
+                widened=trial is not trials[0])
     return (trial if taken else best), note
 
 
@@ -296,8 +297,9 @@ def widen_check(prepared, best: RegisteredFit, config: FitConfig, *, c: int, fix
     taken when its loss is the lower. It runs before :func:`edge_check`, which has the last word
     on the pattern: widened, the independent random 6×6 went from 0.0217 to 0.0149 on its wrong
     pattern and its decode, the truth, then fitted to 0.0129 (sharpness 0.91, ΔE 2.1 and 3.6);
-    the twill 2/1 Z widened turned to its other face, and its decode turned it back. Returns the fit kept and the report's note (``pre_estimation.widened``), or None
-    when no family is that thin."""
+    the twill 2/1 Z widened turned to its other face, and its decode turned it back. Returns
+    the fit kept and the report's note (``pre_estimation.widened``), or None when no family is
+    that thin."""
     wide = widened(best.result.fabric, config.widen_ratio, fixed)
     if wide is None:
         return best, None
@@ -372,8 +374,9 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
     those within it, the one the votes back best, unless they back the custom pattern better.
     The candidate is always fitted: scored with the custom fit's values, the real satin W108's
     named weave looked worse than its custom 5×5 and was not tried; fitted, its loss was 0.0056
-    against 0.0133 (18.7 → 22.5 dB). Last, the pattern the photo's edges decode to is weighed
-    against the fitted one (:func:`edge_check`). Returns the best round, with ``cells`` in the
+    against 0.0133 (18.7 → 22.5 dB). Then a yarn family fitted far thinner than the other is
+    refitted wide (:func:`widen_check`), and last the pattern the photo's edges decode to is
+    weighed against the fitted one (:func:`edge_check`). Returns the best round, with ``cells`` in the
     rectified photo's pixels.
 
     ``rig`` is the light rig to start from (default: ``options.light``'s, at unit gain); the
