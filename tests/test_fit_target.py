@@ -729,3 +729,51 @@ def test_the_decoded_pattern_is_also_tried_with_a_thin_family_widened(monkeypatc
     assert tried == [(1.9, False), (1.9, False), (4.5, True), (4.5, False)]  # as fitted, then widened and held once
     assert note["taken"] and note["widened"] and note["loss"] == 0.0108
     assert equal_up_to_shift(kept.result.fabric.pattern, truth) and kept.result.fabric.warp.radius == 4.5
+
+
+def test_the_family_colours_are_matched_once_more_on_the_fit_the_stages_kept():
+    """The fit the stages kept, its yarn colours swapped (a red warp fitted blue and a blue
+    weft red): the end's match (:func:`weavecap.fit.rounds.colour_check`) puts each family's
+    colour back where it lies on top, and the loss falls. With the match switched off, or
+    every body colour held, the fit is returned as it was."""
+    from dataclasses import replace
+
+    from weavecap.fit import rounds
+    from weavecap.fit.joint import BODY_COLOUR_KEYS, FitResult, end_on_family_colours
+    from weavecap.model.render import render_numpy
+    from weavecap.model.scene import light_rig
+
+    red, blue = (0.7, 0.15, 0.1), (0.1, 0.2, 0.6)
+    truth = params.load(FIXTURES / "twill_2_1.json").replace({
+        "warp.body_reflection": red, "warp.body_subsurface": red,
+        "weft.body_reflection": blue, "weft.body_subsurface": blue})
+    swapped = truth.replace({"warp.body_reflection": blue, "warp.body_subsurface": blue,
+                             "weft.body_reflection": red, "weft.body_subsurface": red})
+    config = PRESETS["normal"]
+    rig = light_rig("both")
+    target = render_numpy(build_scene(truth, View(tiles=(1, 1), size=C * max(truth.shape), spp=config.spp),
+                                      light=rig))
+    loss = blurred_mse(render_numpy(build_scene(swapped, View(tiles=(1, 1), size=C * max(truth.shape),
+                                                                spp=config.spp), light=rig)), target, 0.0)
+    result = FitResult(fabric=swapped, loss=loss, history=[loss], iterations=1, seconds=0.0, stopped="iterations",
+                       rig=rig)
+    best = rounds.RegisteredFit(result=result, target=target, cells=None, blur_px=0.0)
+
+    kept = rounds.colour_check(best, config, fixed=frozenset())
+    note = kept.result.moves["family_colours"]
+    assert note["kept"] and note["judged_by_look"] and max(note["delta_e_after"].values()) < 1.0
+    assert min(note["delta_e_before"].values()) > 15
+    assert kept.result.loss < 1e-4 * loss
+    for family, colour in (("warp", red), ("weft", blue)):
+        np.testing.assert_allclose(kept.result.fabric.get(f"{family}.body_reflection"), colour, atol=1e-3,
+                                   err_msg=family)
+    assert rounds.colour_check(best, replace(config, family_colours=False), fixed=frozenset()) is best
+    assert rounds.colour_check(best, config, fixed=frozenset(BODY_COLOUR_KEYS)) is best
+    # judged by the loss alone, as each round judges it, a match no loss could justify is
+    # refused; judged by the look as well, it is kept
+    strict = config.with_(family_colour_tolerance=-2.0)
+    for by_look in (False, True):
+        fabric, _, matched, note = end_on_family_colours(swapped, rig, target, config=strict, blur_px=0.0,
+                                                         gain=True, by_look=by_look)
+        assert note["kept"] is by_look and (matched is None) is (not by_look)
+        assert (fabric is swapped) is (not by_look)

@@ -66,7 +66,9 @@ class FitConfig:
         0–18%, median 3%; on an own-render random 3×3, 14% for 3 dB), or by more when the
         capture looks more like the photo for it (:func:`weavecap.fit.fidelity.more_faithful`:
         the worse family's colour closer, sharpness and structure no worse): the MSE weighs
-        every pixel alike and can trade a yarn's colour for its edges and gaps
+        every pixel alike and can trade a yarn's colour for its edges and gaps. The look is
+        judged once, on the fit the stages keep (:func:`weavecap.fit.rounds.colour_check`);
+        each registration round keeps its match for the loss alone
     vote_lock : a cell whose model-free vote (:mod:`weavecap.estimate.orientation`) is at
         least this decided keeps the vote's state through the fit: on the independent bench
         photos 98% of such cells were right (92% of those voted 0.3–0.5, 70% under 0.05); on

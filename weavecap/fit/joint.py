@@ -411,6 +411,42 @@ def match_family_colours(fs: FabricScene, target: np.ndarray, measure: Callable[
             "scale": {f: [round(float(v), 4) for v in scale[i]] for i, f in enumerate(families)}}
 
 
+def end_on_family_colours(fabric: Fabric, rig: LightRig, target: np.ndarray, *, config: FitConfig, blur_px: float,
+                          gain: bool, by_look: bool) -> tuple[Fabric, LightRig, float | None, dict]:
+    """``fabric`` under ``rig`` ended on the photo's own yarn colours (:func:`match_family_colours`,
+    §5.2), the match kept when the loss rises by at most ``config.family_colour_tolerance``, or,
+    with ``by_look``, by more when the capture looks more like the photo for it
+    (:func:`weavecap.fit.fidelity.more_faithful`). ``target`` (H, W, 3) the photo's repeat,
+    ``gain``: the match may raise the rig's gain. Returns the fabric and rig kept, the loss
+    after the match (None when it was not kept) and the report's note."""
+    from .fidelity import fidelity, more_faithful
+
+    h, w = target.shape[:2]
+    fs = build_scene(fabric, View(tiles=(1, 1), size=max(h, w), spp=config.spp), light=rig)
+    white = white_level(target)
+
+    def measure() -> float:
+        return blurred_mse(render_numpy(fs, spp=config.spp), target, blur_px)
+
+    def faithful():  # the figures the report gives, on the scene's current state
+        return fidelity(target, as_photographed(render_numpy(fs, spp=config.spp), blur_px, white), fs.fabric.pattern)
+
+    was = faithful()
+    matched = match_family_colours(fs, target, measure, spp=config.spp, blur_px=blur_px, gain=gain)
+    now = faithful()
+    rise = matched["loss_after"] / max(matched["loss_before"], 1e-12) - 1
+    kept = rise <= config.family_colour_tolerance or (by_look and more_faithful(now, was))
+    note = {"renders": matched["renders"] + 2, "scale": matched["scale"], "loss_rise": round(rise, 4),
+            "kept": kept, "judged_by_look": by_look,
+            "delta_e_before": {k: round(v, 2) for k, v in was.delta_e.items() if np.isfinite(v)},
+            "delta_e_after": {k: round(v, 2) for k, v in now.delta_e.items() if np.isfinite(v)},
+            "sharpness": [round(was.sharpness, 3), round(now.sharpness, 3)],
+            "structure": [round(was.structure, 3), round(now.structure, 3)]}
+    if kept:
+        return fs.to_fabric(), fs.rig, matched["loss_after"], note
+    return fabric, rig, None, note
+
+
 def _pattern_sweep(fs: FabricScene, target: np.ndarray, *, spp: int, blur_px: float,
                    locked: np.ndarray | None = None) -> dict:
     """Re-run §5.1's batched T = 0 pattern annealing with the fit's current values, and keep
@@ -473,7 +509,7 @@ class _RadiusSearch:
 
 def fit(target: np.ndarray, start: Fabric, *, config: FitConfig = FitConfig(), light: str | LightRig = "both",
         seed: int = 0, budget_s: float | None = None, fixed: frozenset[str] = frozenset(), blur_px: float = 0.0,
-        radius_mode: str = "search", votes: np.ndarray | None = None,
+        radius_mode: str = "search", votes: np.ndarray | None = None, by_look: bool = True,
         progress: Callable[[int, int, float], None] | None = None) -> FitResult:
     """Fit ``start`` to ``target``, one repeat of the photo (§6).
 
@@ -494,6 +530,8 @@ def fit(target: np.ndarray, start: Fabric, *, config: FitConfig = FitConfig(), l
     votes : (n_e, n_a) model-free votes on the target (:func:`weavecap.estimate.orientation.cell_votes`,
         > 0: weft on top); cells voted at least ``config.vote_lock`` either way take the
         vote's state and keep it (the pattern sweeps do not flip them)
+    by_look : the end's family-colour match may be kept for the look as well as for the loss
+        (:func:`end_on_family_colours`)
     radius_mode : how the radii are fitted: ``"search"`` (greedy pattern search every
         ``config.radius_every`` steps), ``"anneal"`` (Metropolis proposals among the discrete
         moves) or ``"gradient"`` (finite-difference gradients inside Adam)
@@ -595,31 +633,11 @@ def fit(target: np.ndarray, start: Fabric, *, config: FitConfig = FitConfig(), l
         best_loss, best_fabric, best_rig = final, fs.to_fabric(), fs.rig
     moves = {k: {"proposed": v[0], "accepted": v[1]} for k, v in {**annealer.moves, **search.moves}.items()}
     if config.family_colours and colour_keys:  # end on the photo's own yarn colours
-        from .fidelity import fidelity, more_faithful
-
-        fs = build_scene(best_fabric, fs.view, light=best_rig)
-        white = white_level(target)
-
-        def faithful():  # the figures the report gives, on the scene's current state
-            return fidelity(target, as_photographed(render_numpy(fs, spp=config.spp), blur_px, white),
-                            fs.fabric.pattern)
-
-        rig_before_match, was = best_rig, faithful()
         pinned = bool(solves) and any(solves[-1].get("gain_determined", []))  # the gaps fixed the gain
-        matched = match_family_colours(fs, target, measure, spp=config.spp, blur_px=blur_px,
-                                       gain=fit_gain and not pinned)
-        best_rig, now = fs.rig, faithful()
-        rise = matched["loss_after"] / max(matched["loss_before"], 1e-12) - 1
-        kept = rise <= config.family_colour_tolerance or more_faithful(now, was)
-        moves["family_colours"] = {"renders": matched["renders"] + 2, "scale": matched["scale"],
-                                   "loss_rise": round(rise, 4), "kept": kept,
-                                   "delta_e_before": {k: round(v, 2) for k, v in was.delta_e.items() if np.isfinite(v)},
-                                   "delta_e_after": {k: round(v, 2) for k, v in now.delta_e.items() if np.isfinite(v)},
-                                   "sharpness": [round(was.sharpness, 3), round(now.sharpness, 3)]}
-        if kept:
-            best_loss, best_fabric = matched["loss_after"], fs.to_fabric()
-        else:
-            best_rig = rig_before_match
+        best_fabric, best_rig, matched_loss, moves["family_colours"] = end_on_family_colours(
+            best_fabric, best_rig, target, config=config, blur_px=blur_px, gain=fit_gain and not pinned,
+            by_look=by_look)
+        best_loss = best_loss if matched_loss is None else matched_loss
     if sweeps:
         moves["pattern"] = {"sweeps": len(sweeps), "cells_changed": sum(s["changed"] for s in sweeps),
                             "renders": sum(s["renders"] for s in sweeps),

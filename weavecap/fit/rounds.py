@@ -86,7 +86,8 @@ def _fit_round(prepared, cells, fabric: wparams.Fabric, rig: LightRig, config: F
                fixed: frozenset[str], seed: int, budget_s: float | None, held: bool = False) -> RegisteredFit:
     """Register ``cells`` on a render of ``fabric`` under ``rig``, extract the photo's median
     repeat there, measure the blur, and fit ``fabric`` (and the rig's gain) to it. One render
-    serves all three."""
+    serves all three. The round's family-colour match is kept for the loss only; the look is
+    judged once, on the fit the stages keep (:func:`colour_check`)."""
     from ..estimate.forward import BLUR_CELLS, RepeatRenderer
     from .joint import fit
     from ..model.render import as_photographed, white_level
@@ -98,7 +99,7 @@ def _fit_round(prepared, cells, fabric: wparams.Fabric, rig: LightRig, config: F
     cells, shift, target = _registered_target(prepared, cells, model, c, held=held)
     blur_px, _ = photo_blur(image, target, c)
     result = fit(target, fabric, config=config, light=rig, seed=seed, budget_s=budget_s, fixed=fixed,
-                 blur_px=blur_px, votes=cell_votes(target, fabric.shape))
+                 blur_px=blur_px, votes=cell_votes(target, fabric.shape), by_look=False)
     return RegisteredFit(result=result, target=target, cells=cells, blur_px=blur_px,
                          notes={"cell_shift": [round(v, 3) for v in shift]}, held=held)
 
@@ -312,6 +313,30 @@ def widen_check(prepared, best: RegisteredFit, config: FitConfig, *, c: int, fix
     return (trial if taken else best), note
 
 
+def colour_check(best: RegisteredFit, config: FitConfig, *, fixed: frozenset[str]) -> RegisteredFit:
+    """The family-colour match (§5.2, :func:`weavecap.fit.joint.end_on_family_colours`) judged
+    once, on the fit the stages kept: kept when the loss rises by at most
+    ``config.family_colour_tolerance`` or when the capture looks more like the photo for it
+    (:func:`weavecap.fit.fidelity.more_faithful`).
+
+    Each round ends on the match too, but there it is kept for the loss alone: kept for its
+    look in an early round, a match moved the later rounds elsewhere — the independent satin 8
+    warp-faced went from sharpness 0.76 to 0.31 (session 12, docs/capture.md). The fit's
+    ``moves.family_colours`` records this stage's match."""
+    from .joint import BODY_COLOUR_KEYS, end_on_family_colours
+
+    if not config.family_colours or best.target is None or all(k in fixed for k in BODY_COLOUR_KEYS):
+        return best
+    result = best.result
+    pinned = any(result.moves.get("colour_solve", {}).get("gain_determined") or [])  # the gaps fixed the gain
+    fabric, rig, loss, note = end_on_family_colours(result.fabric, result.rig, best.target, config=config,
+                                                    blur_px=best.blur_px, gain="light.gain" not in fixed and not pinned,
+                                                    by_look=True)
+    moves = {**result.moves, "family_colours": note}
+    result = dataclasses.replace(result, fabric=fabric, rig=rig, loss=result.loss if loss is None else loss, moves=moves)
+    return dataclasses.replace(best, result=result)
+
+
 def choose_rig(prepared, cells, fabric: wparams.Fabric, *, c: int, spp: int,
                names: tuple[str, ...] = ("both", "front")) -> tuple[str, dict]:
     """The light rig (§6.4) that explains the photo best for ``--light auto``: ``fabric`` under
@@ -375,9 +400,11 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
     The candidate is always fitted: scored with the custom fit's values, the real satin W108's
     named weave looked worse than its custom 5×5 and was not tried; fitted, its loss was 0.0056
     against 0.0133 (18.7 → 22.5 dB). Then a yarn family fitted far thinner than the other is
-    refitted wide (:func:`widen_check`), and last the pattern the photo's edges decode to is
-    weighed against the fitted one (:func:`edge_check`). Returns the best round, with ``cells`` in the
-    rectified photo's pixels.
+    refitted wide (:func:`widen_check`), the pattern the photo's edges decode to is weighed
+    against the fitted one (:func:`edge_check`), and last the family colours are matched to the
+    photo's, kept for the loss or for the look (:func:`colour_check`; each round's match is
+    kept for the loss alone). Returns the best round, with ``cells`` in the rectified photo's
+    pixels.
 
     ``rig`` is the light rig to start from (default: ``options.light``'s, at unit gain); the
     gain it carries (the photo's exposure and white balance) is fitted along (unless
@@ -527,6 +554,7 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
                                           budget_s=budget(runs - 1))
         if notes["edges"]["taken"]:
             history += best.result.history
+    best = colour_check(best, per_round, fixed=fixed)
     result = dataclasses.replace(best.result, history=history, iterations=len(history),
                                  seconds=time.perf_counter() - t0)
     return RegisteredFit(result=result, target=best.target, cells=shifted(best.cells, prepared.regularized.box),
