@@ -68,6 +68,12 @@ def test_register_cells_moves_misplaced_cells_onto_the_repeat(twill):
     period = np.array([fabric.shape[0] * C, fabric.shape[1] * C])
     err = (np.array([moved.rows[0] - truth.rows[0], moved.cols[0] - truth.cols[0]]) + period / 2) % period - period / 2
     assert np.all(np.abs(err) < 0.6), (err, shift)
+    # the pattern's phase held (whole cells not moved): cells a cell and a third off move by the third only
+    far = CellGrid.regular(fabric.shape, C, origin=(10.0 + C + 5.0, 10.0))
+    moved, shift = register_cells(photo, far, model, C, whole_cells=False)
+    assert abs(shift[0] + 5.0 / C) < 0.05 and abs(shift[1]) < 0.05, shift
+    err = (moved.rows[0] - truth.rows[0] - C + period[0] / 2) % period[0] - period[0] / 2
+    assert abs(err) < 0.6, (err, shift)
 
 
 def test_mean_repeat_follows_a_drifting_lattice(twill):
@@ -777,3 +783,60 @@ def test_the_family_colours_are_matched_once_more_on_the_fit_the_stages_kept():
                                                          gain=True, by_look=by_look)
         assert note["kept"] is by_look and (matched is None) is (not by_look)
         assert (fabric is swapped) is (not by_look)
+
+
+def test_the_families_separate_most_at_the_pattern_s_own_phase():
+    """A twill 3/1 drawn with a blue warp and a brown weft: at its own phase the two families'
+    cell centres differ by a full colour difference, a cell off half of each family's cells
+    hold the other and the difference falls; the shift that undoes a pattern rolled a cell
+    along is the one that separates the families most."""
+    from weavecap.estimate.sampling import twill
+    from weavecap.fit.rounds import family_separation
+
+    pattern = twill(3, 1, step=1)
+    canvas = _weave_canvas(pattern)
+    seps = family_separation(canvas, pattern)
+    assert np.argmax(seps) == 0 and seps[0, 0] > 20
+    other = [seps[dy, dx] for dy in range(4) for dx in range(4)
+             if not np.array_equal(np.roll(pattern, (dy, dx), axis=(0, 1)), pattern)]  # not along the diagonal
+    assert len(other) == 12 and max(other) < 0.5 * seps[0, 0]
+    moved = np.roll(pattern, 1, axis=1)
+    rolled = family_separation(canvas, moved)
+    back = np.unravel_index(np.argmax(rolled), rolled.shape)
+    assert np.array_equal(np.roll(moved, back, axis=(0, 1)), pattern)
+    # one yarn colour: no phase tells the families apart
+    grey = _weave_canvas(pattern).mean(axis=2, keepdims=True).repeat(3, axis=2)
+    assert family_separation(grey, pattern).max() < 3
+
+
+@pytest.mark.parametrize("loss, taken", [(0.0105, True), (0.013, False)])
+def test_a_pattern_registered_a_cell_off_is_refitted_at_the_phase_the_colours_show(monkeypatch, loss, taken):
+    """The fit's pattern a cell off the photo (the independent twill 3/1 S): the phase where the
+    photo's families separate is refitted with the pattern fixed and the whole cells held, and
+    taken when its loss is within the tolerance (10%) of the fit's."""
+    from weavecap.estimate.sampling import twill
+    from weavecap.estimate.weave_name import equal_up_to_shift
+    from weavecap.fit import rounds
+
+    truth = twill(3, 1, step=1)
+    target = _weave_canvas(truth)
+    fit_of = partial(_registered_fit, target=target)
+    fitted = params.load(FIXTURES / "plain.json").replace({"pattern": np.roll(truth, 1, axis=1)})
+    tried = []
+
+    def fake_round(prepared, cells, fabric, rig, config, *, fixed, whole_cells=True, **kw):
+        tried.append((fabric.pattern.copy(), "pattern" in fixed, whole_cells))
+        return fit_of(fabric, loss)
+
+    monkeypatch.setattr(rounds, "_fit_round", fake_round)
+    best = fit_of(fitted, 0.01)
+    kept, note = rounds.phase_check(None, best, PRESETS["normal"], c=16, fixed=frozenset(), seed=0, budget_s=None)
+    assert len(tried) == 2 and all(np.array_equal(p, truth) and held and not whole for p, held, whole in tried)
+    assert note["separation"][1] > 2 * note["separation"][0]
+    assert note["taken"] is taken and (kept is not best) is taken
+    assert equal_up_to_shift(kept.result.fabric.pattern, truth)
+    # at its own phase, nothing is tried
+    tried.clear()
+    same, none = rounds.phase_check(None, fit_of(fitted.replace({"pattern": truth}), 0.01), PRESETS["normal"],
+                                    c=16, fixed=frozenset(), seed=0, budget_s=None)
+    assert none is None and not tried

@@ -98,6 +98,10 @@ class FitConfig:
         the fitted one's (on the independent bench the right decodes rose by 1.08–1.38)
     widen_ratio : a fitted yarn radius under this share of the other family's is refitted at
         the other's (:func:`weavecap.fit.rounds.widen_check`; 0 never)
+    phase_margin, phase_loss_tolerance : a whole-cell shift of the fitted pattern whose warp
+        and weft cell centres differ in the photo's colour by more than ``phase_margin`` times
+        the fitted phase's is refitted, and taken when its loss is at most
+        ``1 + phase_loss_tolerance`` times the fit's (:func:`weavecap.fit.rounds.phase_check`)
     """
 
     iterations: int = 120
@@ -132,6 +136,8 @@ class FitConfig:
     edge_margin: float = 1.1
     edge_loss_cap: float = 2.0
     widen_ratio: float = 0.5
+    phase_margin: float = 1.1
+    phase_loss_tolerance: float = 0.1
 
     def with_(self, **changes) -> "FitConfig":
         return replace(self, **changes)

@@ -71,22 +71,23 @@ class RegisteredFit:
         return self.result.rig
 
 
-def _registered_target(prepared, cells, model: np.ndarray, c: int, *, held: bool = False):
+def _registered_target(prepared, cells, model: np.ndarray, c: int, *, held: bool = False, whole_cells: bool = True):
     """The cells registered on ``model`` (a render of one repeat as photographed, ``c`` px per
     cell) and the photo's median repeat there (its drift ``held`` to the cells' phase or not,
     :func:`weavecap.fit.target.mean_repeat`): (cells in the regularized box's pixels, shift in
-    cells, target (n_e*c, n_a*c, 3))."""
-    cells, shift = register_cells(prepared.regularized.image, cells, model, c)
+    cells, target (n_e*c, n_a*c, 3)); ``whole_cells`` False holds the pattern's phase on the photo."""
+    cells, shift = register_cells(prepared.regularized.image, cells, model, c, whole_cells=whole_cells)
     target = mean_repeat(prepared.rectification.image, shifted(cells, prepared.regularized.box), c, model=model,
                          hold_phase=held)
     return cells, shift, target
 
 
 def _fit_round(prepared, cells, fabric: wparams.Fabric, rig: LightRig, config: FitConfig, *, c: int,
-               fixed: frozenset[str], seed: int, budget_s: float | None, held: bool = False) -> RegisteredFit:
-    """Register ``cells`` on a render of ``fabric`` under ``rig``, extract the photo's median
-    repeat there, measure the blur, and fit ``fabric`` (and the rig's gain) to it. One render
-    serves all three. The round's family-colour match is kept for the loss only; the look is
+               fixed: frozenset[str], seed: int, budget_s: float | None, held: bool = False,
+               whole_cells: bool = True) -> RegisteredFit:
+    """Register ``cells`` on a render of ``fabric`` under ``rig`` (by whole cells as well unless
+    ``whole_cells`` is False), extract the photo's median repeat there, measure the blur, and
+    fit ``fabric`` (and the rig's gain) to it. One render serves all three. The round's family-colour match is kept for the loss only; the look is
     judged once, on the fit the stages keep (:func:`colour_check`)."""
     from ..estimate.forward import BLUR_CELLS, RepeatRenderer
     from .joint import fit
@@ -96,7 +97,7 @@ def _fit_round(prepared, cells, fabric: wparams.Fabric, rig: LightRig, config: F
     model = as_photographed(image, BLUR_CELLS * c, white_level(prepared.rectification.image))
     from ..estimate.orientation import cell_votes
 
-    cells, shift, target = _registered_target(prepared, cells, model, c, held=held)
+    cells, shift, target = _registered_target(prepared, cells, model, c, held=held, whole_cells=whole_cells)
     blur_px, _ = photo_blur(image, target, c)
     result = fit(target, fabric, config=config, light=rig, seed=seed, budget_s=budget_s, fixed=fixed,
                  blur_px=blur_px, votes=cell_votes(target, fabric.shape), by_look=False)
@@ -258,16 +259,18 @@ def edge_check(prepared, best: RegisteredFit, config: FitConfig, *, c: int, fixe
 
 def refit(prepared, best: RegisteredFit, fabric: wparams.Fabric, config: FitConfig, *, c: int,
           fixed: frozenset[str], seed: int, budget_s: float | None, rounds: int,
-          hold_first: frozenset[str] = frozenset()) -> RegisteredFit:
+          hold_first: frozenset[str] = frozenset(), whole_cells: bool = True) -> RegisteredFit:
     """``fabric`` fitted in ``rounds`` registration rounds, the first on ``best``'s cells and
-    rig and each later one on the last's, ``hold_first`` held in the first only; the round with
-    the lowest loss, carrying every round's steps."""
+    rig and each later one on the last's, ``hold_first`` held in the first only (and the
+    pattern's phase on the photo in all, unless ``whole_cells``); the round with the lowest
+    loss, carrying every round's steps."""
     trial, steps = None, []
     for k in range(rounds):
         last = trial or best
         this = _fit_round(prepared, last.cells, trial.result.fabric if trial else fabric, last.rig, config, c=c,
                           fixed=fixed | (hold_first if k == 0 else frozenset()), seed=seed + k,
-                          budget_s=None if budget_s is None else budget_s / rounds, held=best.held)
+                          budget_s=None if budget_s is None else budget_s / rounds, held=best.held,
+                          whole_cells=whole_cells)
         steps += this.result.history
         trial = this if trial is None or this.result.loss < trial.result.loss else trial
     return dataclasses.replace(trial, result=dataclasses.replace(trial.result, history=steps))
@@ -309,6 +312,59 @@ def widen_check(prepared, best: RegisteredFit, config: FitConfig, *, c: int, fix
     taken = trial.result.loss < best.result.loss
     note = {"radii": [round(float(best.result.fabric.get(key)), 3) for key in GEOMETRY_KEYS],
             "refitted": [round(float(trial.result.fabric.get(key)), 3) for key in GEOMETRY_KEYS],
+            "loss": round(trial.result.loss, 6), "fitted_loss": round(best.result.loss, 6), "taken": bool(taken)}
+    return (trial if taken else best), note
+
+
+def family_separation(target: np.ndarray, pattern: np.ndarray) -> np.ndarray:
+    """How far apart the photo's two yarn families are in colour for each whole-cell phase of
+    ``pattern`` on ``target`` (the photo's repeat, (n_e*c, n_a*c, 3) linear RGB): (n_e, n_a)
+    CIEDE2000 between the mean colours at the centres of the cells the warp tops and of those
+    the weft tops (:func:`weavecap.fit.fidelity.family_masks`), the pattern rolled by (dy, dx)."""
+    from skimage.color import deltaE_ciede2000
+
+    from .fidelity import family_masks, mean_lab
+
+    n_e, n_a = pattern.shape
+    out = np.zeros((n_e, n_a))
+    for dy in range(n_e):
+        for dx in range(n_a):
+            masks = family_masks(np.roll(pattern, (dy, dx), axis=(0, 1)), target.shape[:2])
+            if masks["warp"].any() and masks["weft"].any():
+                out[dy, dx] = float(deltaE_ciede2000(mean_lab(target, masks["warp"]), mean_lab(target, masks["weft"])))
+    return out
+
+
+def phase_check(prepared, best: RegisteredFit, config: FitConfig, *, c: int, fixed: frozenset[str], seed: int,
+                budget_s: float | None) -> tuple[RegisteredFit, dict | None]:
+    """The pattern's whole-cell phase on the photo, model-free (§5.2: the photo shows each
+    family's colour at the centres of its cells; issue 11).
+
+    The cells are registered on renders of the fit (:func:`register_cells`'s correlation), and
+    where the model renders the fabric unlike the photo the correlation can put the pattern a
+    cell off: the independent twill 3/1 S's warp risers, dark in the render, sat on the photo's
+    dark float ends beside its magenta risers. Registered so, half of each family's cells hold
+    the other family, the two families' colours at the cell centres draw together, and the
+    family-colour match makes both the average; the loss still preferred it (0.0309 against
+    0.0315 registered on colour). Of the pattern's cyclic shifts, the one whose warp and weft
+    cell centres differ most in the photo's colour (:func:`family_separation`) is tried when
+    it separates them by more than ``config.phase_margin`` times the fitted phase: refitted
+    with that pattern (fixed) and the phase held (:func:`refit`, whole cells not registered),
+    and taken when its loss is at most ``1 + config.phase_loss_tolerance`` times the fit's.
+    Returns the fit kept and the report's note (``pre_estimation.phase``), or None when the
+    fitted phase separates the families best."""
+    if best.target is None or "pattern" in fixed:
+        return best, None
+    pattern = best.result.fabric.pattern
+    seps = family_separation(best.target, pattern)
+    dy, dx = np.unravel_index(int(np.argmax(seps)), seps.shape)
+    if seps[dy, dx] <= config.phase_margin * seps[0, 0]:
+        return best, None
+    rolled = best.result.fabric.replace({"pattern": np.roll(pattern, (dy, dx), axis=(0, 1))})
+    trial = refit(prepared, best, rolled, config, c=c, fixed=fixed | {"pattern"}, seed=seed, budget_s=budget_s,
+                  rounds=2, whole_cells=False)
+    taken = trial.result.loss <= best.result.loss * (1.0 + config.phase_loss_tolerance)
+    note = {"shift": [int(dy), int(dx)], "separation": [round(float(seps[0, 0]), 2), round(float(seps[dy, dx]), 2)],
             "loss": round(trial.result.loss, 6), "fitted_loss": round(best.result.loss, 6), "taken": bool(taken)}
     return (trial if taken else best), note
 
@@ -401,8 +457,9 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
     named weave looked worse than its custom 5×5 and was not tried; fitted, its loss was 0.0056
     against 0.0133 (18.7 → 22.5 dB). Then a yarn family fitted far thinner than the other is
     refitted wide (:func:`widen_check`), the pattern the photo's edges decode to is weighed
-    against the fitted one (:func:`edge_check`), and last the family colours are matched to the
-    photo's, kept for the loss or for the look (:func:`colour_check`; each round's match is
+    against the fitted one (:func:`edge_check`), the pattern's whole-cell phase is weighed against
+    the one at which the photo's two families differ most in colour (:func:`phase_check`), and
+    last the family colours are matched to the photo's, kept for the loss or for the look (:func:`colour_check`; each round's match is
     kept for the loss alone). Returns the best round, with ``cells`` in the rectified photo's
     pixels.
 
@@ -542,18 +599,17 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
                                     "votes_agree": [round(votes_named, 3), round(votes_custom, 3)]}
             if taken:
                 best = last
-    if not spent():
-        best, wide = widen_check(prepared, best, per_round, c=c, fixed=fixed, seed=options.seed + k + 1,
-                                 budget_s=budget(runs - 1))
-        if wide is not None:
-            notes["widened"] = wide
-            if wide["taken"]:
+    # the end stages, in this order (their docstrings say why): a family fitted far thinner than
+    # the other widened, the pattern the photo's edges decode to, the pattern's phase on the photo
+    for name, stage, seed in (("widened", widen_check, 1), ("edges", edge_check, 1), ("phase", phase_check, 2)):
+        if spent() or (stage is edge_check and not (explore_patterns and best.target is not None)):
+            continue
+        best, note = stage(prepared, best, per_round, c=c, fixed=fixed, seed=options.seed + k + seed,
+                           budget_s=budget(runs - 1))
+        if note is not None:
+            notes[name] = note
+            if note["taken"]:
                 history += best.result.history
-    if explore_patterns and best.target is not None and not spent():
-        best, notes["edges"] = edge_check(prepared, best, per_round, c=c, fixed=fixed, seed=options.seed + k + 1,
-                                          budget_s=budget(runs - 1))
-        if notes["edges"]["taken"]:
-            history += best.result.history
     best = colour_check(best, per_round, fixed=fixed)
     result = dataclasses.replace(best.result, history=history, iterations=len(history),
                                  seconds=time.perf_counter() - t0)

@@ -102,7 +102,8 @@ def correlation_shift(photo: np.ndarray, model: np.ndarray) -> np.ndarray:
     return out.reshape(corr.shape[:-2] + (2,))
 
 
-def register_cells(image: np.ndarray, cells: CellGrid, model: np.ndarray, c: int) -> tuple[CellGrid, tuple[float, float]]:
+def register_cells(image: np.ndarray, cells: CellGrid, model: np.ndarray, c: int, *,
+                   whole_cells: bool = True) -> tuple[CellGrid, tuple[float, float]]:
     """Move ``cells`` so that the photo's repeat lines up with ``model``, a render of the fabric
     ((n_e*c, n_a*c, 3) at ``c`` px per cell, as photographed).
 
@@ -111,7 +112,9 @@ def register_cells(image: np.ndarray, cells: CellGrid, model: np.ndarray, c: int
     canvas and the render are both one period of the fabric, so their circular
     cross-correlation (one FFT) peaks at the shift between them; the cells move by that shift
     (sub-pixel), whole cells included, so the fabric's pattern stays right for the moved
-    cells. Returns the moved CellGrid and the shift in cells (dy, dx).
+    cells. With ``whole_cells`` False only the fraction of a cell moves (the pattern's phase on
+    the photo held, :func:`weavecap.fit.rounds.phase_check`). Returns the moved CellGrid and the
+    shift in cells (dy, dx).
     """
     canvas = cell_canvas(image, cells, c)
     photo = canvas.mean(axis=2)
@@ -122,8 +125,8 @@ def register_cells(image: np.ndarray, cells: CellGrid, model: np.ndarray, c: int
     # the photo's gaps against the model's (the same estimator on both cancels its bias)
     (py, px), (my, mx) = gap_phase(canvas, cells.shape), gap_phase(np.asarray(model)[..., None], cells.shape)
     sy, sx = ((py - my) / c + 0.5) % 1.0 - 0.5, ((px - mx) / c + 0.5) % 1.0 - 0.5
-    dy = float(np.round(dy - sy) + sy)
-    dx = float(np.round(dx - sx) + sx)
+    dy = float(np.round(dy - sy) + sy) if whole_cells else float(sy)
+    dx = float(np.round(dx - sx) + sx) if whole_cells else float(sx)
     rows = cells.rows + dy * np.diff(cells.rows).mean()
     cols = cells.cols + dx * np.diff(cells.cols).mean()
     # back by whole repeats to start inside the image: the pattern's phase is the same there,
