@@ -840,3 +840,8 @@ def test_a_pattern_registered_a_cell_off_is_refitted_at_the_phase_the_colours_sh
     same, none = rounds.phase_check(None, fit_of(fitted.replace({"pattern": truth}), 0.01), PRESETS["normal"],
                                     c=16, fixed=frozenset(), seed=0, budget_s=None)
     assert none is None and not tried
+    # a fabric of one colour: no phase separates its families by a visible colour difference
+    grey = _weave_canvas(truth).mean(axis=2, keepdims=True).repeat(3, axis=2)
+    same, none = rounds.phase_check(None, _registered_fit(fitted, 0.01, target=grey), PRESETS["normal"], c=16,
+                                    fixed=frozenset(), seed=0, budget_s=None)
+    assert none is None and not tried

@@ -102,6 +102,8 @@ class FitConfig:
         and weft cell centres differ in the photo's colour by more than ``phase_margin`` times
         the fitted phase's is refitted, and taken when its loss is at most
         ``1 + phase_loss_tolerance`` times the fit's (:func:`weavecap.fit.rounds.phase_check`)
+    phase_min_separation : ... and only when that shift separates them by at least this
+        CIEDE2000 (under it the fabric shows one colour and no phase is told apart by it)
     """
 
     iterations: int = 120
@@ -138,6 +140,7 @@ class FitConfig:
     widen_ratio: float = 0.5
     phase_margin: float = 1.1
     phase_loss_tolerance: float = 0.1
+    phase_min_separation: float = 5.0
 
     def with_(self, **changes) -> "FitConfig":
         return replace(self, **changes)

@@ -348,7 +348,9 @@ def phase_check(prepared, best: RegisteredFit, config: FitConfig, *, c: int, fix
     family-colour match makes both the average; the loss still preferred it (0.0309 against
     0.0315 registered on colour). Of the pattern's cyclic shifts, the one whose warp and weft
     cell centres differ most in the photo's colour (:func:`family_separation`) is tried when
-    it separates them by more than ``config.phase_margin`` times the fitted phase: refitted
+    it separates them by more than ``config.phase_margin`` times the fitted phase and by at least
+    ``config.phase_min_separation`` (a fabric of one colour, whose families no phase tells
+    apart — the real grey herringbone D16, 0.1 against 2.9 — is left alone): refitted
     with that pattern (fixed) and the phase held (:func:`refit`, whole cells not registered),
     and taken when its loss is at most ``1 + config.phase_loss_tolerance`` times the fit's.
     Returns the fit kept and the report's note (``pre_estimation.phase``), or None when the
@@ -358,7 +360,7 @@ def phase_check(prepared, best: RegisteredFit, config: FitConfig, *, c: int, fix
     pattern = best.result.fabric.pattern
     seps = family_separation(best.target, pattern)
     dy, dx = np.unravel_index(int(np.argmax(seps)), seps.shape)
-    if seps[dy, dx] <= config.phase_margin * seps[0, 0]:
+    if seps[dy, dx] <= config.phase_margin * seps[0, 0] or seps[dy, dx] < config.phase_min_separation:
         return best, None
     rolled = best.result.fabric.replace({"pattern": np.roll(pattern, (dy, dx), axis=(0, 1))})
     trial = refit(prepared, best, rolled, config, c=c, fixed=fixed | {"pattern"}, seed=seed, budget_s=budget_s,
