@@ -418,7 +418,8 @@ def end_on_family_colours(fabric: Fabric, rig: LightRig, target: np.ndarray, *, 
     with ``by_look``, by more when the capture looks more like the photo for it
     (:func:`weavecap.fit.fidelity.more_faithful`). ``target`` (H, W, 3) the photo's repeat,
     ``gain``: the match may raise the rig's gain. Returns the fabric and rig kept, the loss
-    after the match (None when it was not kept) and the report's note."""
+    after the match (None when it was not kept) and the report's note (with ``by_look``, the
+    fidelity figures before and after; without, none are rendered)."""
     from .fidelity import fidelity, more_faithful
 
     h, w = target.shape[:2]
@@ -431,17 +432,21 @@ def end_on_family_colours(fabric: Fabric, rig: LightRig, target: np.ndarray, *, 
     def faithful():  # the figures the report gives, on the scene's current state
         return fidelity(target, as_photographed(render_numpy(fs, spp=config.spp), blur_px, white), fs.fabric.pattern)
 
-    was = faithful()
+    was = faithful() if by_look else None  # the look only matters when it may keep the match
     matched = match_family_colours(fs, target, measure, spp=config.spp, blur_px=blur_px, gain=gain)
-    now = faithful()
     rise = matched["loss_after"] / max(matched["loss_before"], 1e-12) - 1
-    kept = rise <= config.family_colour_tolerance or (by_look and more_faithful(now, was))
-    note = {"renders": matched["renders"] + 2, "scale": matched["scale"], "loss_rise": round(rise, 4),
-            "kept": kept, "judged_by_look": by_look,
-            "delta_e_before": {k: round(v, 2) for k, v in was.delta_e.items() if np.isfinite(v)},
-            "delta_e_after": {k: round(v, 2) for k, v in now.delta_e.items() if np.isfinite(v)},
-            "sharpness": [round(was.sharpness, 3), round(now.sharpness, 3)],
-            "structure": [round(was.structure, 3), round(now.structure, 3)]}
+    note = {"renders": matched["renders"], "scale": matched["scale"], "loss_rise": round(rise, 4),
+            "judged_by_look": by_look}
+    kept = rise <= config.family_colour_tolerance
+    if by_look:
+        now = faithful()
+        kept = kept or more_faithful(now, was)
+        note.update(renders=matched["renders"] + 2,
+                    delta_e_before={k: round(v, 2) for k, v in was.delta_e.items() if np.isfinite(v)},
+                    delta_e_after={k: round(v, 2) for k, v in now.delta_e.items() if np.isfinite(v)},
+                    sharpness=[round(was.sharpness, 3), round(now.sharpness, 3)],
+                    structure=[round(was.structure, 3), round(now.structure, 3)])
+    note["kept"] = kept
     if kept:
         return fs.to_fabric(), fs.rig, matched["loss_after"], note
     return fabric, rig, None, note

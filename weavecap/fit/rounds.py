@@ -3,10 +3,11 @@
 :func:`fit_registered` runs the joint fit (:func:`weavecap.fit.joint.fit`) in rounds, each on
 the photo's cells registered against a render of the fabric fitted so far
 (:mod:`weavecap.fit.target`); it tries several starts (the pre-estimate, its dual, the best
-named weave, the votes' pattern) and ends with three stages: the best named weave of the
-fitted pattern's shape, a thin yarn family refitted wide (:func:`widen_check`), and the
-pattern the photo's edges decode to (:func:`edge_check`). The runner
-(:func:`weavecap.pipeline.capture`) calls it as one stage.
+named weave, the votes' pattern) and ends with its end stages: the best named weave of the
+fitted pattern's shape, a thin yarn family refitted wide (:func:`widen_check`), the pattern
+the photo's edges decode to (:func:`edge_check`), the pattern's whole-cell phase on the photo
+(:func:`phase_check`) and the family colours judged for their look (:func:`colour_check`).
+The runner (:func:`weavecap.pipeline.capture`) calls it as one stage.
 """
 
 from __future__ import annotations
@@ -87,8 +88,9 @@ def _fit_round(prepared, cells, fabric: wparams.Fabric, rig: LightRig, config: F
                whole_cells: bool = True) -> RegisteredFit:
     """Register ``cells`` on a render of ``fabric`` under ``rig`` (by whole cells as well unless
     ``whole_cells`` is False), extract the photo's median repeat there, measure the blur, and
-    fit ``fabric`` (and the rig's gain) to it. One render serves all three. The round's family-colour match is kept for the loss only; the look is
-    judged once, on the fit the stages keep (:func:`colour_check`)."""
+    fit ``fabric`` (and the rig's gain) to it. One render serves all three. The round's
+    family-colour match is kept for the loss only; the look is judged once, on the fit the
+    stages keep (:func:`colour_check`)."""
     from ..estimate.forward import BLUR_CELLS, RepeatRenderer
     from .joint import fit
     from ..model.render import as_photographed, white_level
@@ -461,9 +463,9 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
     refitted wide (:func:`widen_check`), the pattern the photo's edges decode to is weighed
     against the fitted one (:func:`edge_check`), the pattern's whole-cell phase is weighed against
     the one at which the photo's two families differ most in colour (:func:`phase_check`), and
-    last the family colours are matched to the photo's, kept for the loss or for the look (:func:`colour_check`; each round's match is
-    kept for the loss alone). Returns the best round, with ``cells`` in the rectified photo's
-    pixels.
+    last the family colours are matched to the photo's, kept for the loss or for the look
+    (:func:`colour_check`; each round's match is kept for the loss alone). Returns the best
+    round, with ``cells`` in the rectified photo's pixels.
 
     ``rig`` is the light rig to start from (default: ``options.light``'s, at unit gain); the
     gain it carries (the photo's exposure and white balance) is fitted along (unless
@@ -603,10 +605,10 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
                 best = last
     # the end stages, in this order (their docstrings say why): a family fitted far thinner than
     # the other widened, the pattern the photo's edges decode to, the pattern's phase on the photo
-    for name, stage, seed in (("widened", widen_check, 1), ("edges", edge_check, 1), ("phase", phase_check, 2)):
+    for name, stage, offset in (("widened", widen_check, 1), ("edges", edge_check, 1), ("phase", phase_check, 2)):
         if spent() or (stage is edge_check and not (explore_patterns and best.target is not None)):
             continue
-        best, note = stage(prepared, best, per_round, c=c, fixed=fixed, seed=options.seed + k + seed,
+        best, note = stage(prepared, best, per_round, c=c, fixed=fixed, seed=options.seed + k + offset,
                            budget_s=budget(runs - 1))
         if note is not None:
             notes[name] = note
