@@ -17,9 +17,12 @@ from .options import (check_batch_options, force_option, jobs_option, quiet_opti
               help="Output folder (one photo: its files; several: one sub-folder each + summary.jsonl).")
 @click.option("--quality", type=click.Choice(["draft", "normal", "high"]), default="normal", show_default=True,
               help="Speed against accuracy (docs/capture.md's fit bench).")
-@click.option("--light", type=click.Choice(["auto", "both", "front", "back"]), default="auto", show_default=True,
-              help="How the photo was lit: room light (front, back and sides), front-only or back-only; auto "
-                   "takes the one of room light and front-only that explains the photo better.")
+@click.option("--light", type=click.Choice(["auto", "both", "front", "back", "lamp"]), default="auto",
+              show_default=True,
+              help="How the photo was lit: room light (front, back and sides), front-only, back-only, or one lamp "
+                   "in front and the back light (no side lights); auto takes the one of room light and front-only "
+                   "that explains the photo better (never lamp: try it when a capture renders flatter than its "
+                   "photo, a sharpness under 0.8 in report.json).")
 @click.option("--budget", "budget_s", type=click.FloatRange(min=1), default=None,
               help="Stop each photo's fit after this many seconds (the best result so far is kept).")
 @jobs_option("Photos fitted")

@@ -57,7 +57,7 @@ def _mode_help() -> str:
 @click.option("--margin", type=float, default=0.05, show_default=True,
               help="Space around the mesh's bounding box, as a fraction of it (0 frames the box exactly).")
 @click.option("--light", default="studio", show_default=True,
-              help="studio (key, fill, rim), sun (sun and sky), both|front|back (the capture rigs of synth and "
+              help="studio (key, fill, rim), sun (sun and sky), both|front|back|lamp (the capture rigs of synth and "
                    "fit), or an environment map (.exr, .hdr).")
 @click.option("--ground", is_flag=True, help="Add a grey floor under the mesh.")
 @click.option("--units", type=click.Choice(["m", "cm", "mm"]), default="m", show_default=True,

@@ -18,8 +18,9 @@ from .options import force_option, parse_tiles, pattern_option, quiet_option, se
               help="Repeats of the weave pattern in the frame, rows x columns.")
 @click.option("--size", default=512, show_default=True, type=int,
               help="Pixels along the longer side of the photo.")
-@click.option("--light", type=click.Choice(["both", "front", "back"]), default="both", show_default=True,
-              help="Light rig (§6.4): ambient + front, back and side lights, or front-only / back-only.")
+@click.option("--light", type=click.Choice(["both", "front", "back", "lamp"]), default="both", show_default=True,
+              help="Light rig (§6.4): ambient + front, back and side lights, front-only / back-only, or one lamp "
+                   "in front and the back light (no side lights).")
 @click.option("--spp", default=4, show_default=True, type=int,
               help="Samples per pixel (antialiasing; lighting itself is exact).")
 @click.option("--rotate", "rotate_deg", default=0.0, show_default=True, type=float,

@@ -61,6 +61,17 @@ def test_unsupported_output_extension_exits_2(name, tmp_path):
     assert not (tmp_path / name).exists()
 
 
+def test_synth_renders_under_every_capture_rig(tmp_path):
+    """``--light`` takes every rig the fit knows, ``lamp`` included, and the render is written."""
+    from weavecap.model.scene import RIGS
+
+    for rig in RIGS:
+        out = tmp_path / f"{rig}.png"
+        result = run("synth", PLAIN, "-o", out, *TINY, "--light", rig)
+        assert result.exit_code == 0, (rig, result.output)
+        assert load_photo(out).rgb.max() > 0, rig
+
+
 def test_existing_output_is_kept_without_force(tmp_path):
     """An existing output is not overwritten without --force: exit 2 and the file unchanged."""
     out = tmp_path / "x.png"

@@ -83,14 +83,30 @@ def test_quarter_turn_turns_the_picture():
 
 
 def test_light_rigs_light_the_gaps_as_described():
-    """Thin yarns leave gaps: dark under a front-only rig, bright with a light behind."""
+    """Thin yarns leave gaps: dark under a front-only rig, bright with a light behind (the
+    one-lamp rig keeps the room rig's back light)."""
     fabric = params.load(FIXTURES[0]).replace({"warp.radius": 2.0, "weft.radius": 2.0})
     view = View(tiles=(1, 1), size=40, spp=1)
     front = render_numpy(build_scene(fabric, view, light="front"))
-    back = render_numpy(build_scene(fabric, view, light="back"))
     corner = (slice(0, 2), slice(0, 2))  # between yarns: each yarn is centred in its cell
     assert front[corner].max() < 0.1
-    assert back[corner].min() > 0.5
+    for rig in ("back", "lamp"):
+        assert render_numpy(build_scene(fabric, view, light=rig))[corner].min() > 0.5, rig
+
+
+def test_the_lamp_rig_is_the_room_rig_without_its_side_lights():
+    """``lamp``: the room rig's front and back lights, no light from the sides (low in the
+    sky), and the ambient raised in their place; an unknown rig's error names every rig."""
+    from weavecap.errors import InputError
+    from weavecap.model.scene import RIGS, light_rig
+
+    both, lamp = light_rig("both"), light_rig("lamp")
+    assert set(lamp.lights) < set(both.lights)
+    assert all(light.direction[2] > 0.9 or light.direction[2] < -0.9 for light in lamp.lights)
+    assert lamp.ambient > both.ambient and lamp.backdrop == both.backdrop
+    with pytest.raises(InputError) as err:
+        light_rig("side")
+    assert all(name in str(err.value) for name in RIGS)
 
 
 def test_perspective_camera_sees_the_same_fabric_in_the_middle():

@@ -404,7 +404,14 @@ def choose_rig(prepared, cells, fabric: wparams.Fabric, *, c: int, spp: int,
     rig's gain solved in closed form (:func:`weavecap.fit.joint.solve_colours`), and the rig
     with the lower loss wins. A back-lit photo's gaps glow and its yarns let the light through;
     a front-lit one has neither, and a rig with a back light then explains it worse (and the
-    other way round). Returns the name and each rig's loss."""
+    other way round). Returns the name and each rig's loss.
+
+    ``lamp`` (one lamp in front, no side lights) is not among the names, nor weighed later:
+    the loss does not see what it mends. Scored on the pre-estimate, it came out below ``both``
+    on the three own renders tried, which ``both`` had made (fitted under it, the plain lost
+    1.3 dB and the twill 2.6, the satin 5 gained 1.5); scored on the first round's fit of seven
+    photos, it came out below only on the independent satin 8, and a round fitted under it
+    there ended 21% above (docs/capture.md, Session 16). It is the user's to choose."""
     from ..estimate.forward import BLUR_CELLS, RepeatRenderer
     from ..model.render import blurred_mse, render_numpy, white_level
     from ..model.scene import View, build_scene, light_rig

@@ -82,16 +82,37 @@ BACK = Light(_unit(0.1, 0.15, -1.0), 1.0)
 SIDES = (Light(_unit(1.0, 0.0, 0.45), 0.45), Light(_unit(-1.0, 0.0, 0.45), 0.45))
 
 
+#: the rigs :func:`light_rig` knows
+RIGS = ("both", "front", "back", "lamp")
+#: the ambient light of the ``lamp`` rig, in place of the side lights (which give a flat surface
+#: 2 × 0.45 × sin 24° ≈ 0.37 in ``both``); the one value tried, not tuned
+LAMP_AMBIENT = 0.28
+
+
 def light_rig(which: str = "both") -> LightRig:
-    """The default rig (``both``: ambient + front, back and two side lights, §6.4), or the
-    front-only / back-only rigs for photos whose lighting is known."""
+    """The default rig (``both``: ambient + front, back and two side lights, §6.4), the
+    front-only / back-only rigs for photos whose lighting is known, or ``lamp``: one lamp in
+    front (the front light) over a lit panel (the back light), no side lights, a stronger
+    ambient in their place.
+
+    ``lamp`` is the user's to choose (``--light lamp``); ``--light auto`` never takes it
+    (:func:`weavecap.fit.rounds.choose_rig`). Measured with it (issue 11, normal; docs/capture.md,
+    Session 16), against auto's ``both``: on the independent photos, the satin 8 warp-faced's
+    sharpness 0.31 → 1.05 (rounded pink risers where auto's are flat bars), the twill 3/1's ΔE
+    13.3 / 2.1 → 5.5 / 5.3 and the twill 2/1 Z's 8.3 / 2.5 → 3.2 / 0.4; on the real photos, the
+    plains W027 and W077 sharper (0.79 → 0.92, 0.74 → 0.88) but their colours further off (ΔE up
+    to 7.5, 7.9), and both satins fitted as custom weaves. Not by rounder shading: on a grey
+    plain its yarn flanks get 0.95 of their tops' light, 0.86 under ``both``; the fits differ in
+    where the colours and the specular lobe settle."""
     if which == "both":
         return LightRig(ambient=0.12, lights=(FRONT, BACK) + SIDES, backdrop=BACK.irradiance, name="both")
+    if which == "lamp":
+        return LightRig(ambient=LAMP_AMBIENT, lights=(FRONT, BACK), backdrop=BACK.irradiance, name="lamp")
     if which == "front":
         return LightRig(ambient=0.15, lights=(FRONT,) + SIDES, backdrop=0.05, name="front")
     if which == "back":
         return LightRig(ambient=0.05, lights=(BACK,), backdrop=BACK.irradiance, name="back")
-    raise InputError(f"light rig {which!r} is unknown; use one of both, front, back")
+    raise InputError(f"light rig {which!r} is unknown; use one of {', '.join(RIGS)}")
 
 
 @dataclass(frozen=True)

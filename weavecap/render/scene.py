@@ -29,13 +29,13 @@ import numpy as np
 
 from ..errors import InputError
 from ..model import bysdf as _bysdf
-from ..model.scene import light_rig
+from ..model.scene import RIGS, light_rig
 
 mi = _bysdf.mi
 dr = _bysdf.dr
 
 VIEWS = {"front": (0.0, 0.0), "back": (180.0, 0.0), "left": (-90.0, 0.0), "right": (90.0, 0.0), "top": (0.0, 90.0)}
-CAPTURE_RIGS = ("both", "front", "back")
+CAPTURE_RIGS = RIGS
 LIGHTS = ("studio", "sun") + CAPTURE_RIGS
 ENV_SUFFIXES = (".exr", ".hdr")
 #: studio lights: (direction towards the light in the camera frame (right, up, towards the
