@@ -23,9 +23,11 @@ import click
                    "or both.")
 @click.option("--preset", "presets", type=click.Choice(["draft", "normal", "high"]), multiple=True,
               help="Quality presets to fit at (repeatable; default: all three, --quick: draft and normal).")
+@click.option("--light", type=click.Choice(["auto", "best"]), default="auto", show_default=True,
+              help="The fit bench's --light: auto, or best (three captures a photo).")
 @click.option("-o", "--output", "out", type=click.Path(file_okay=False, path_type=Path), default=Path("bench-out"),
               show_default=True, help="Folder for the photos, results.json, render.json and the speed-against-error plot.")
-def bench(quick, do_model, do_fit, do_render, sets, presets, out):
+def bench(quick, do_model, do_fit, do_render, sets, presets, light, out):
     """Measure speed and accuracy on this machine.
 
     Sections: --model (the forward model), --fit (the fit bench), --render (the output
@@ -57,6 +59,7 @@ def bench(quick, do_model, do_fit, do_render, sets, presets, out):
       weavecap bench --render
       weavecap bench --no-fit
       weavecap bench --fit --set independent --preset normal
+      weavecap bench --fit --set independent --preset normal --light best
       weavecap bench -o bench-out/ > performance.md
     """
     from weavecap.io import atomic_write_text
@@ -79,7 +82,7 @@ def bench(quick, do_model, do_fit, do_render, sets, presets, out):
 
         presets = presets or (("draft", "normal") if quick else ("draft", "normal", "high"))
         photo_sets = fit_bench.SETS if sets == "both" else (sets,)
-        rows = fit_bench.run(presets, quick=quick, folder=out, sets=photo_sets, progress=say)
+        rows = fit_bench.run(presets, quick=quick, folder=out, sets=photo_sets, light=light, progress=say)
         summary = fit_bench.summary(rows)
         exposure = []
         if "independent" in photo_sets and not quick:

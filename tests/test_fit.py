@@ -274,3 +274,36 @@ def test_family_colours_raise_the_gain_without_brightening_the_highlights():
     for k in SPECULAR_COLOUR_KEYS:
         np.testing.assert_allclose(gain * np.asarray(fs.to_fabric().get(k)), shine, rtol=1e-4, err_msg=k)
     assert out["loss_after"] < 1e-3 * out["loss_before"]
+
+
+def test_light_best_keeps_the_lowest_loss_of_the_captures_as_sharp_as_the_photo(monkeypatch):
+    """``--light best``: the ``auto`` capture, then one whole capture per rig auto did not fit
+    under; kept, the lowest final loss of those at least 0.75 as sharp as the photo (the sharpest
+    when none is), every loss and time in the report; a photo rejected by auto is returned at once."""
+    from weavecap import pipeline
+
+    losses = {"auto": 0.003, "both": 0.004, "front": 0.002, "lamp": 0.001}
+    sharpness = {"auto": 0.9, "both": 0.8, "front": 1.1, "lamp": 0.4}  # lamp: the lowest loss, but flat
+    calls = []
+
+    def fake_capture(photo, options, *, progress=None):
+        calls.append(options.light)
+        if photo == "bad.jpg":
+            return pipeline.Capture(report={"status": "rejected", "timings_s": {"total": 0.5}})
+        rig = "both" if options.light == "auto" else options.light
+        return pipeline.Capture(report={"status": "ok", "options": {"light": options.light}, "modelled": {},
+                                        "fit": {"mse": losses[options.light], "light": {"rig": rig},
+                                                "fidelity": {"sharpness": sharpness[options.light]}},
+                                        "timings_s": {"total": 10.0}}, fabric=options.light)
+
+    monkeypatch.setattr(pipeline, "capture", fake_capture)
+    best = pipeline.best_rig_capture("photo.jpg", pipeline.CaptureOptions(light="best"))
+    assert calls == ["auto", "front", "lamp"]  # auto fitted under both
+    assert best.fabric == "front" and best.report["options"]["light"] == "best"
+    assert all(f"{light} loss {losses[light]:.4g}" in best.report["modelled"]["light_rig_from"] for light in calls)
+    assert best.report["timings_s"]["total"] == 30.0
+    sharpness.update(auto=0.3, front=0.5)  # none sharp enough: the sharpest
+    assert pipeline.best_rig_capture("photo.jpg", pipeline.CaptureOptions(light="best")).fabric == "front"
+    calls.clear()
+    assert pipeline.best_rig_capture("bad.jpg", pipeline.CaptureOptions(light="best")).status == "rejected"
+    assert calls == ["auto"]

@@ -138,10 +138,10 @@ def compare(fit: Fabric | None, truth: Fabric, determined: dict | None = None) -
 
 
 def run(presets: tuple[str, ...], *, quick: bool, folder: Path | None = None, sets: tuple[str, ...] = SETS,
-        progress=print) -> list[dict]:
-    """Fit every photo of each of ``sets`` at every preset; one result dict per (photo,
-    preset). ``folder`` keeps the photos (``own/``, ``independent/``) and each fit's outputs
-    (``fits/<preset>/<photo>/``, compare.png included)."""
+        light: str = "auto", progress=print) -> list[dict]:
+    """Fit every photo of each of ``sets`` at every preset, with ``weavecap fit --light``
+    ``light``; one result dict per (photo, preset). ``folder`` keeps the photos (``own/``,
+    ``independent/``) and each fit's outputs (``fits/<preset>/<photo>/``, compare.png included)."""
     from .estimate.weave_name import weave_name
     from .pipeline import CaptureOptions, capture, write_capture
 
@@ -155,13 +155,14 @@ def run(presets: tuple[str, ...], *, quick: bool, folder: Path | None = None, se
         results = []
         for preset in presets:
             for photo in photos:
-                cap = capture(photo.path, CaptureOptions(quality=preset, seed=0))
+                cap = capture(photo.path, CaptureOptions(quality=preset, seed=0, light=light))
                 if folder is not None:
                     write_capture(cap, where / "fits" / preset / photo.set / photo.path.stem)
                 fit = cap.report.get("fit", {})
                 scores = (compare(cap.fabric, photo.truth, fit.get("parameters")) if photo.truth is not None
                           else score_pattern(cap.fabric, photo.pattern))
-                row = {"set": photo.set, "preset": preset, "photo": photo.path.name, "family": photo.family,
+                row = {"set": photo.set, "preset": preset, "light": light, "photo": photo.path.name,
+                       "family": photo.family,
                        "status": cap.status, "seconds": cap.report["timings_s"]["total"],
                        "psnr_db": fit["psnr_db"] if cap.status == "ok" else None,
                        "fidelity": fit.get("fidelity") if cap.status == "ok" else None,
