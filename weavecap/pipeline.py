@@ -38,8 +38,8 @@ class CaptureOptions:
     quality : preset name of :data:`weavecap.fit.config.PRESETS`
     light : the light rig the photo was taken under (§6.4), ``auto``: the rig that explains
         the photo best before the fit (:func:`weavecap.fit.rounds.choose_rig`: both or front),
-        or ``best``: the capture under each of :data:`BEST_RIGS`, the lowest loss kept
-        (:func:`best_rig_capture`)
+        or ``best``: whole captures under ``auto`` and the rigs of :data:`BEST_RIGS` it did not
+        take, one kept (:func:`best_rig_capture`)
     seed : seeds every random choice; the same seed gives the same result
     budget_s : wall-time limit of the joint fit, seconds (None: the preset's iterations)
     start_from : a fabric to start the fit from instead of the pre-estimate (warm start)
