@@ -52,12 +52,15 @@ def test_independent_rows_are_scored_on_pattern_and_fidelity():
     assert not fit_bench.score_pattern(fit.replace({"pattern": truth[:, ::-1].copy()}), truth)["pattern_exact"]
     rows = [{"set": "independent", "preset": "normal", "seconds": 20.0 + k, "psnr_db": 25.0, "fitted": True,
              "pattern_exact": k < 3, "fidelity": {"sharpness": 0.8 + 0.05 * k, "structure": 0.9,
-                                                  "delta_e": {"warp": 1.0 + k, "weft": None}}} for k in range(4)]
+                                                  "delta_e": {"warp": 1.0 + k, "weft": None}},
+             "timings_s": {"total": 20.0 + k, **({"captures": {"auto": 10.0, "lamp": 10.0 + k}} if k == 1 else {})}}
+            for k in range(4)]
     (row,) = fit_bench.summary(rows)
+    assert row["rigs_searched"] == 1
     assert row["pattern_exact"] == 0.75 and row["sharpness_worst"] == pytest.approx(0.8)
     assert row["delta_e_median"] == pytest.approx(2.5) and row["delta_e_worst"] == 4.0
     table = fit_bench.independent_table([row])
-    assert "| normal | 4/4 |" in table and "75%" in table and fit_bench.table([row]) == ""
+    assert "| normal | 4/4 |" in table and "75%" in table and table.endswith("| 1 |") and fit_bench.table([row]) == ""
     ex = fit_bench.exposure_table([{"fabric": "f", "preset": "draft", "fitted": 4, "delta_e_max": {"warp": 1.23,
                                     "weft": 2.5}, "gain": {"as shot": [1.0, 1.0, 1.0]}}])
     assert "| f | draft | rig | 4/4 | 1.2 | 2.5 |" in ex

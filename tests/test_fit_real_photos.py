@@ -20,9 +20,9 @@ def test_the_blue_and_white_plain_keeps_its_blue():
     2×2 repeat could not tell them apart and the votes took the dual: its weft collapsed to a
     thin black yarn and the blue was lost (ΔE 2.3 / 14.3, the weft family rendered at L* 50
     where the photo has 34). Measured with starts tied only within 15%: ΔE 9.4 / 9.2, the
-    warp family rendered blue (b* −11.6; photo −16.8). Sharpness: above 0.8 where CI last ran,
-    0.786 in a fresh install of 2026-12-05 with main's code unchanged (another CPU or newer
-    dependencies; not traced), hence 0.75."""
+    warp family rendered blue (b* −11.6; photo −16.8). Sharpness: 0.79–0.80 under ``auto``'s
+    rig (both) depending on the machine; since ``auto`` captures a photo rendered under 0.8 of
+    its sharpness again under the other rigs, the front-lit capture is kept (1.09, ΔE 0 / 0)."""
     cap = capture(EASY / "fabricnet_W027_plain.jpg", CaptureOptions(quality="normal", seed=0))
     assert cap.status == "ok" and cap.report["weave"] == "plain"
     start = cap.report["pre_estimation"]["start"]
@@ -31,4 +31,4 @@ def test_the_blue_and_white_plain_keeps_its_blue():
     assert max(fid["delta_e"].values()) < 10.0, fid
     blue = min(fid["lab"].values(), key=lambda family: family["photo"][2])  # the bluer family in the photo
     assert blue["render"][2] < -8.0, fid
-    assert fid["sharpness"] > 0.75, fid
+    assert fid["sharpness"] >= 0.8, fid

@@ -258,6 +258,7 @@ def summary(results: list[dict]) -> list[dict]:
                          "median_s": statistics.median(r["seconds"] for r in rs), "max_s": max(r["seconds"] for r in rs),
                          "pattern_exact": sum(r["pattern_exact"] for r in rs) / len(rs),
                          "median_psnr_db": statistics.median(r["psnr_db"] for r in fitted) if fitted else float("nan"),
+                         "rigs_searched": sum("captures" in (r.get("timings_s") or {}) for r in rs),
                          **_fidelity_summary(fitted)})
             continue
         row = {"set": set_, "preset": preset, "photos": len(rs), "fitted": len(fitted),
@@ -280,16 +281,17 @@ def summary(results: list[dict]) -> list[dict]:
 
 
 def independent_table(rows: list[dict]) -> str:
-    """The independent set's table (markdown): pattern, fidelity and time per preset."""
+    """The independent set's table (markdown): pattern, fidelity and time per preset, and how
+    many photos were captured under more than one rig (:func:`weavecap.pipeline.rig_search`)."""
     out = ["| preset | photos fitted | median s | max s | pattern exact | median PSNR | sharpness median | "
-           "sharpness worst | ΔE2000 median | ΔE2000 worst | structure median |", "|" + "---|" * 11]
+           "sharpness worst | ΔE2000 median | ΔE2000 worst | structure median | rigs searched |", "|" + "---|" * 12]
     for r in rows:
         if r.get("set") != "independent":
             continue
         out.append(f"| {r['preset']} | {r['fitted']}/{r['photos']} | {r['median_s']:.1f} | {r['max_s']:.1f} | "
                    f"{r['pattern_exact']:.0%} | {r['median_psnr_db']:.1f} dB | {r['sharpness_median']:.2f} | "
                    f"{r['sharpness_worst']:.2f} | {r['delta_e_median']:.1f} | {r['delta_e_worst']:.1f} | "
-                   f"{r['structure_median']:.2f} |")
+                   f"{r['structure_median']:.2f} | {r.get('rigs_searched', 0)} |")
     return "\n".join(out)
 
 

@@ -104,6 +104,16 @@ class FitConfig:
         ``1 + phase_loss_tolerance`` times the fit's (:func:`weavecap.fit.rounds.phase_check`)
     phase_min_separation : ... and only when that shift separates them by at least this
         CIEDE2000 (under it the fabric shows one colour and no phase is told apart by it)
+    rig_retry : under ``--light auto``, a capture whose render is not faithful to the photo
+        (below ``faithful_sharpness`` or a family beyond ``faithful_delta_e``) is captured again
+        under the other rigs of :data:`weavecap.pipeline.BEST_RIGS`, one of them kept
+        (:func:`weavecap.pipeline.rig_search`); off at draft, which is for a quick look
+    faithful_sharpness : a capture is faithful when its render has at least this share of the
+        photo's gradient energy (issue 11's bound on real photos) ...
+    faithful_delta_e : ... and each yarn family's colour is within this CIEDE2000 of the
+        photo's (:func:`weavecap.fit.fidelity.fidelity`)
+    rig_loss_slack : a rig search weighs ``auto``'s capture and those whose loss is at most
+        this many times the lowest (:func:`weavecap.pipeline.kept_capture`)
     """
 
     iterations: int = 120
@@ -141,13 +151,18 @@ class FitConfig:
     phase_margin: float = 1.1
     phase_loss_tolerance: float = 0.1
     phase_min_separation: float = 5.0
+    rig_retry: bool = True
+    faithful_sharpness: float = 0.8
+    faithful_delta_e: float = 10.0
+    rig_loss_slack: float = 1.5
 
     def with_(self, **changes) -> "FitConfig":
         return replace(self, **changes)
 
 
 PRESETS: dict[str, FitConfig] = {
-    "draft": FitConfig(iterations=50, cell_px=10, converge_window=15, registration_rounds=2, extra_rounds=0),
+    "draft": FitConfig(iterations=50, cell_px=10, converge_window=15, registration_rounds=2, extra_rounds=0,
+                       rig_retry=False),
     "normal": FitConfig(),
     "high": FitConfig(iterations=300, spp=8, converge_window=40, converge_tol=5e-4, extra_rounds=1),
 }

@@ -411,8 +411,8 @@ def choose_rig(prepared, cells, fabric: wparams.Fabric, *, c: int, spp: int,
     on the three own renders tried, which ``both`` had made (fitted under it, the plain lost
     1.3 dB and the twill 2.6, the satin 5 gained 1.5); scored on the first round's fit of seven
     photos, it came out below only on the independent satin 8, and a round fitted under it
-    there ended 21% above (docs/capture.md, Session 16). ``--light best`` weighs it after whole
-    captures (:func:`weavecap.pipeline.best_rig_capture`)."""
+    there ended 21% above (docs/capture.md, Session 16). A rig search weighs it after whole
+    captures (:func:`weavecap.pipeline.rig_search`)."""
     from ..estimate.forward import BLUR_CELLS, RepeatRenderer
     from ..model.render import blurred_mse, render_numpy, white_level
     from ..model.scene import View, build_scene, light_rig
