@@ -42,6 +42,10 @@ def test_batch_with_a_corrupt_photo_gives_two_results_three_lines_and_exit_3(bat
     assert [line["photo"] for line in lines] == [str(p) for p in photos]
     assert [line["status"] for line in lines] == ["ok", "rejected", "ok"]
     assert "b_corrupt.png" in lines[1]["reason"]
+    for line, name in ((lines[0], "a_twill"), (lines[2], "c_plain")):  # how faithful, at a glance
+        fit = json.loads((out / name / "report.json").read_text())["fit"]
+        assert line["light"] == fit["light"]["rig"] and line["sharpness"] == fit["fidelity"]["sharpness"]
+        assert line["delta_e"] == fit["fidelity"]["delta_e"] and set(line["delta_e"]) == {"warp", "weft"}
     for name in ("a_twill", "c_plain"):
         for file in ("params.json", "report.json", "compare.png", "rectified.png", "grid.png", "loss.png"):
             assert (out / name / file).is_file(), (name, file)

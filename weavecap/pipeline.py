@@ -112,8 +112,11 @@ class FitJob:
 
     def summary(self, record: dict) -> dict:
         fit = record.get("fit", {})
+        fidelity = fit.get("fidelity", {})
         return {"weave": record.get("weave"), "psnr_db": fit.get("psnr_db"),
-                "pattern_confidence": fit.get("pattern_confidence"), "yarns": record["grid"]["yarns"]}
+                "pattern_confidence": fit.get("pattern_confidence"), "yarns": record["grid"]["yarns"],
+                "light": fit.get("light", {}).get("rig"), "sharpness": fidelity.get("sharpness"),
+                "delta_e": fidelity.get("delta_e")}
 
 
 def psnr(a: np.ndarray, b: np.ndarray) -> float:
