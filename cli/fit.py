@@ -87,9 +87,12 @@ def fit(photos, out, quality, light, budget_s, jobs, scheduler, start_from, patt
         elif event.kind == "started":
             say(f"{where} {photo}: fitting ({quality})")
         elif record.get("status") == "ok":
+            fit = record["fit"]
+            rigs = len(record["timings_s"].get("captures", {})) or 1
+            light = fit["light"]["rig"] + (f" light ({rigs} rigs tried)" if rigs > 1 else " light")
             say(f"{where} {photo}: {record['weave']}, {record['grid']['yarns'][0]}x{record['grid']['yarns'][1]} "
-                f"repeat, PSNR {record['fit']['psnr_db']:.1f} dB, {record['timings_s']['total']:.1f} s -> "
-                f"{event.item.folder}")
+                f"repeat, PSNR {fit['psnr_db']:.1f} dB, sharpness {fit['fidelity']['sharpness']}, {light}, "
+                f"{record['timings_s']['total']:.1f} s -> {event.item.folder}")
         else:
             say(f"{where} {photo}: {event.line['status']}: {record.get('reason')}", error=True)
 

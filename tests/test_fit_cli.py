@@ -51,6 +51,7 @@ def test_batch_with_a_corrupt_photo_gives_two_results_three_lines_and_exit_3(bat
             assert (out / name / file).is_file(), (name, file)
     assert not (out / "b_corrupt" / "params.json").exists()
     assert "Traceback" not in result.output
+    assert "a_twill.png: twill" in result.output and "sharpness" in result.output and " light, " in result.output
 
 
 def test_reports_and_params_follow_the_contracts(batch):
