@@ -24,7 +24,7 @@ from .options import (check_batch_options, force_option, jobs_option, quiet_opti
                    "that explains the photo better before the fit and, at normal and high quality, captures the "
                    "photo again under the other rigs when the render comes out blurred or off-colour (sharpness "
                    "under 0.8 of the photo's, a yarn family beyond ΔE 10); best always does (three times as long); "
-                   "either keeps the lowest loss of the captures as sharp as the photo.")
+                   "either keeps the lowest loss of the faithful captures.")
 @click.option("--budget", "budget_s", type=click.FloatRange(min=1), default=None,
               help="Stop each photo's fit after this many seconds (the best result so far is kept); a photo "
                    "captured under several rigs (--light) gets this for each.")

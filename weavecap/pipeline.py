@@ -354,8 +354,8 @@ def rig_search(photo_path: str | Path, options: CaptureOptions, *, first: Captur
     photos. After the whole fit the loss mostly ranks the rigs as their looks do, but it
     rewards a blur: on 5 of the 18 the lowest loss was a render under 0.75 of the photo's
     sharpness. Measured on the independent photos (normal): sharpness median / worst
-    0.91 / 0.31 under ``auto`` without a retry, 0.94 / 0.82 with it, 0.95 / 0.80 searching
-    every photo; ΔE2000 median / worst 0.9 / 13.3, 0.7 / 8.3 and 0.6 / 6.9 (docs/capture.md,
+    0.91 / 0.31 under ``auto`` without a retry, 0.94 / 0.82 with it, 0.98 / 0.82 searching
+    every photo; ΔE2000 median / worst 0.9 / 13.3, 0.7 / 8.3 and 0.7 / 6.9 (docs/capture.md,
     Sessions 16–17). A photo rejected by ``auto`` is returned at once (preparation does not
     depend on the rig)."""
     say = progress or (lambda _msg: None)
@@ -378,9 +378,11 @@ def rig_search(photo_path: str | Path, options: CaptureOptions, *, first: Captur
            f"auto's capture was not faithful to the photo (sharpness under {config.faithful_sharpness} "
            f"or a family's colour beyond ΔE {config.faithful_delta_e}), the other rigs searched")
     out.report["options"]["light"] = options.light
-    out.report["modelled"]["light_rig_from"] = f"{why}: {chosen} ({out.report['fit']['light']['rig']}) kept, {reason}: " + (
-        ", ".join(f"{light} loss {cap.report['fit']['mse']:.4g}, sharpness {cap.report['fit']['fidelity']['sharpness']}, "
-                  f"ΔE {cap.report['fit']['fidelity']['delta_e']}" for light, cap in caps.items()))
+    fits = {light: cap.report["fit"] for light, cap in caps.items()}
+    each = [f"{light} loss {f['mse']:.4g}, sharpness {f['fidelity']['sharpness']}, ΔE {f['fidelity']['delta_e']}"
+            for light, f in fits.items()]
+    out.report["modelled"]["light_rig_from"] = (f"{why}: {chosen} ({out.report['fit']['light']['rig']}) kept, "
+                                                f"{reason}: " + ", ".join(each))
     out.report["timings_s"]["captures"] = {light: cap.report["timings_s"]["total"] for light, cap in caps.items()}
     out.report["timings_s"]["total"] = round(sum(out.report["timings_s"]["captures"].values()), 3)
     return out
@@ -406,7 +408,8 @@ def kept_capture(reports: dict[str, dict], config: FitConfig) -> tuple[str, str]
         return min(faithful_ones, key=losses.get), "the lowest loss of the faithful captures"
     sharp = [light for light in weighed if sharpness[light] >= config.faithful_sharpness]
     if sharp:
-        return min(sharp, key=losses.get), f"none faithful; the lowest loss of those {config.faithful_sharpness} as sharp as the photo"
+        return min(sharp, key=losses.get), (f"none faithful; the lowest loss of those {config.faithful_sharpness} "
+                                            "as sharp as the photo")
     return max(weighed, key=sharpness.get), f"none {config.faithful_sharpness} as sharp as the photo; the sharpest"
 
 
