@@ -96,15 +96,48 @@ def test_more_faithful_takes_the_right_colours_but_not_at_the_cost_of_a_blur():
     itself, and one whose colours only move within a ΔE of 1 is not either."""
     from weavecap.fit.fidelity import more_faithful
 
+    bounds = dict(min_sharpness=0.8, max_delta_e=10.0)
     photo = _canvas(TWILL, RED, BLUE)
     grey = (RED + BLUE) / 2
     muted = fidelity(photo, _canvas(TWILL, RED + (grey - RED) / 3, BLUE + (grey - BLUE) / 3), TWILL)
     right = fidelity(photo, photo, TWILL)
     blurred = fidelity(photo, gaussian_filter(photo, (1.0, 1.0, 0), mode="wrap"), TWILL)
     assert min(muted.delta_e.values()) > 5
-    assert more_faithful(right, muted)
-    assert not more_faithful(muted, right)
-    assert not more_faithful(blurred, muted)
-    assert not more_faithful(muted, muted)
+    assert more_faithful(right, muted, **bounds)
+    assert not more_faithful(muted, right, **bounds)
+    assert not more_faithful(blurred, muted, **bounds)
+    assert not more_faithful(muted, muted, **bounds)
     nearly = fidelity(photo, _canvas(TWILL, RED * 1.01, BLUE * 1.01), TWILL)
-    assert not more_faithful(right, nearly)
+    assert not more_faithful(right, nearly, **bounds)
+
+
+def test_a_render_made_faithful_is_more_faithful_though_sharper_than_the_photo():
+    """Colours 60 % of the way to grey (both families beyond ΔE 10) against the photo's colours
+    on an over-sharpened canvas (1.3 times the photo's gradient energy): the second is faithful
+    and the first is not, and its structure is closer, so it is taken, though its sharpness is
+    further from the photo's. Blurred below the sharpness bound, the photo's colours are not
+    taken."""
+    from weavecap.fit.fidelity import Fidelity, faithful_figures, more_faithful
+
+    bounds = dict(min_sharpness=0.8, max_delta_e=10.0)
+    photo = _canvas(TWILL, RED, BLUE)
+    grey = (RED + BLUE) / 2
+    far = fidelity(photo, _canvas(TWILL, RED + (grey - RED) * 0.6, BLUE + (grey - BLUE) * 0.6), TWILL)
+    crisp = fidelity(photo, np.clip(photo + 0.3 * (photo - gaussian_filter(photo, (1, 1, 0), mode="wrap")), 0, 1),
+                     TWILL)
+    blurred = fidelity(photo, gaussian_filter(photo, (2.5, 2.5, 0), mode="wrap"), TWILL)
+    assert min(far.delta_e.values()) > 10 and 1.2 < crisp.sharpness < 1.5 and blurred.sharpness < 0.8
+    assert not faithful_figures(far.sharpness, far.delta_e, **bounds)
+    assert faithful_figures(crisp.sharpness, crisp.delta_e, **bounds)
+    assert abs(np.log(crisp.sharpness)) > abs(np.log(far.sharpness)) + 0.05  # further off, yet taken
+    assert more_faithful(crisp, far, **bounds)
+    assert not more_faithful(far, crisp, **bounds)
+    assert not more_faithful(blurred, far, **bounds)
+    # the measured figures: the real satin W108's match is taken; the independent twill 3/1's,
+    # colours matched on cells a whole cell off the photo's yarns, its structure no higher, is not
+    w108 = Fidelity(sharpness=1.019, delta_e={"warp": 10.85, "weft": 6.18}, structure=0.2025, lab={})
+    assert more_faithful(Fidelity(1.345, {"warp": 0.02, "weft": 0.03}, 0.3185, {}), w108, **bounds)
+    twill = Fidelity(sharpness=0.923, delta_e={"warp": 13.31, "weft": 2.08}, structure=0.464, lab={})
+    assert not more_faithful(Fidelity(1.197, {"warp": 2.86, "weft": 0.0}, 0.45, {}), twill, **bounds)
+    assert faithful_figures(0.9, {"warp": 3.0, "weft": None}, **bounds)  # a family never shown is not judged
+    assert not faithful_figures(float("nan"), {"warp": 3.0}, **bounds)

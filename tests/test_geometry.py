@@ -216,3 +216,17 @@ def test_every_face_is_wound_outward(name, radius):
     n_e, n_a = pattern.shape
     for mesh in g.fabric_meshes(pattern, r_warp=radius, r_weft=radius, rows=(0, n_e), cols=(0, n_a)):
         assert inward_faces(mesh) == 0
+
+
+@pytest.mark.parametrize("name", ["twill-3x3", "non-square-3x5", "satin-5"])
+def test_yarns_swept_together_equal_each_swept_alone(name):
+    """A family's yarns are swept as one stack: the mesh is each yarn's tube, in order, exactly
+    as swept alone (the faces offset by the vertices before them)."""
+    curves = g.control_points(PATTERNS[name], r_warp=3.0, r_weft=2.0, rows=(-1, 6), cols=(-1, 7))
+    for family, radius, side in ((curves.weft, 2.0, (0.0, 1.0, 0.0)), (curves.warp, 3.0, (1.0, 0.0, 0.0))):
+        together = g.sweep_tubes(family, radius, side=np.array(side))
+        alone = [g.sweep_tubes([cp], radius, side=np.array(side)) for cp in family]
+        offsets = np.cumsum([0] + [m.positions.shape[0] for m in alone[:-1]])
+        for key in ("positions", "normals", "texcoords"):
+            np.testing.assert_array_equal(getattr(together, key), np.concatenate([getattr(m, key) for m in alone]))
+        np.testing.assert_array_equal(together.faces, np.concatenate([m.faces + o for m, o in zip(alone, offsets)]))

@@ -168,9 +168,11 @@ def faithful(report: dict, config: FitConfig) -> bool:
     """Whether a capture's render looks like its photo: at least ``config.faithful_sharpness``
     of its gradient energy and each family's colour within ``config.faithful_delta_e``
     (``report["fit"]["fidelity"]``; a family the pattern never shows is not judged)."""
+    from .fit.fidelity import faithful_figures
+
     f = report["fit"]["fidelity"]
-    colours = [v for v in f["delta_e"].values() if v is not None and np.isfinite(v)]
-    return (f["sharpness"] or 0.0) >= config.faithful_sharpness and all(v <= config.faithful_delta_e for v in colours)
+    return faithful_figures(f["sharpness"], f["delta_e"], min_sharpness=config.faithful_sharpness,
+                            max_delta_e=config.faithful_delta_e)
 
 
 def capture_under_rig(photo_path: str | Path, options: CaptureOptions, *,

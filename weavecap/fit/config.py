@@ -65,7 +65,8 @@ class FitConfig:
         at most ``family_colour_tolerance`` (on the independent bench photos the rise was
         0–18%, median 3%; on an own-render random 3×3, 14% for 3 dB), or by more when the
         capture looks more like the photo for it (:func:`weavecap.fit.fidelity.more_faithful`:
-        the worse family's colour closer, sharpness and structure no worse): the MSE weighs
+        the worse family's colour closer, sharpness and structure no worse; or made faithful
+        by ``faithful_sharpness`` and ``faithful_delta_e``, its structure higher): the MSE weighs
         every pixel alike and can trade a yarn's colour for its edges and gaps. The look is
         judged once, on the fit the stages keep (:func:`weavecap.fit.rounds.colour_check`);
         each registration round keeps its match for the loss alone

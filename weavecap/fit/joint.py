@@ -440,7 +440,8 @@ def end_on_family_colours(fabric: Fabric, rig: LightRig, target: np.ndarray, *, 
     kept = rise <= config.family_colour_tolerance
     if by_look:
         now = faithful()
-        kept = kept or more_faithful(now, was)
+        kept = kept or more_faithful(now, was, min_sharpness=config.faithful_sharpness,
+                                     max_delta_e=config.faithful_delta_e)
         note.update(renders=matched["renders"] + 2,
                     delta_e_before={k: round(v, 2) for k, v in was.delta_e.items() if np.isfinite(v)},
                     delta_e_after={k: round(v, 2) for k, v in now.delta_e.items() if np.isfinite(v)},

@@ -33,6 +33,7 @@ without projective sampling, so radii are differentiated by finite differences
 from __future__ import annotations
 
 from dataclasses import dataclass
+from itertools import groupby
 
 import numpy as np
 from scipy.ndimage import gaussian_filter1d
@@ -138,18 +139,18 @@ def bspline(points: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray]:
 
     Parameters
     ----------
-    points : (K, 3) control points, K >= 4
+    points : (..., K, 3) control points, K >= 4 (a stack of curves of K points each)
     count : number of evaluations from the start to the end of the curve (>= 2)
 
     Returns
     -------
-    positions, derivatives : (count, 3) arrays (derivative per unit of control-point index)
+    positions, derivatives : (..., count, 3) arrays (derivative per unit of control-point index)
     """
-    k = points.shape[0]
+    k = points.shape[-2]
     t = np.linspace(0.0, k - 3, count)
     seg = np.minimum(t.astype(int), k - 4)
     u = (t - seg)[:, None]
-    p0, p1, p2, p3 = (points[seg + o] for o in range(4))
+    p0, p1, p2, p3 = (points[..., seg + o, :] for o in range(4))
     pos = ((1 - u) ** 3 * p0 + (3 * u**3 - 6 * u**2 + 4) * p1 + (-3 * u**3 + 3 * u**2 + 3 * u + 1) * p2
            + u**3 * p3) / 6.0
     der = (-(1 - u) ** 2 * p0 + (3 * u**2 - 4 * u) * p1 + (-3 * u**2 + 2 * u + 1) * p2 + u**2 * p3) / 2.0
@@ -179,25 +180,26 @@ def bend_limits(points: np.ndarray, count: int, up: np.ndarray) -> tuple[np.ndar
 
     Parameters
     ----------
-    points : (K, 3) control points of a yarn, in a vertical plane
+    points : (..., K, 3) control points of a yarn (or a stack of yarns), in a vertical plane
     count : rings along the yarn (:func:`bspline`'s ``count``)
-    up : (count, 3) each ring's unit normal in the yarn's plane
+    up : (..., count, 3) each ring's unit normal in the yarn's plane
 
     Returns
     -------
-    above, below : (count,) the largest offsets along ``+up`` and ``-up``: ``BEND_MARGIN`` × the
-        tightest radius of curvature, within half a ring spacing either side, of a bend whose
+    above, below : (..., count) the largest offsets along ``+up`` and ``-up``: ``BEND_MARGIN`` ×
+        the tightest radius of curvature, within half a ring spacing either side, of a bend whose
         centre lies on that side (inf where the axis bends the other way or not at all)
     """
     fine = 8
     pos, der = bspline(points, (count - 1) * fine + 1)
-    tangent = der / np.linalg.norm(der, axis=1, keepdims=True)
-    ds = np.linalg.norm(np.gradient(pos, axis=0), axis=1)
-    curvature = np.gradient(tangent, axis=0) / ds[:, None]  # points to the centre of the bend
-    up_fine = np.repeat(up, fine, axis=0)[: pos.shape[0]]
-    toward_up = np.einsum("ij,ij->i", curvature, up_fine)
-    window = np.lib.stride_tricks.sliding_window_view(np.pad(toward_up, fine // 2, mode="edge"), fine + 1)
-    bend_up, bend_down = window.max(axis=1)[::fine], -window.min(axis=1)[::fine]
+    tangent = der / np.linalg.norm(der, axis=-1, keepdims=True)
+    ds = np.linalg.norm(np.gradient(pos, axis=-2), axis=-1)
+    curvature = np.gradient(tangent, axis=-2) / ds[..., None]  # points to the centre of the bend
+    up_fine = np.repeat(up, fine, axis=-2)[..., : pos.shape[-2], :]
+    toward_up = np.sum(curvature * up_fine, axis=-1)
+    padded = np.pad(toward_up, [(0, 0)] * (toward_up.ndim - 1) + [(fine // 2, fine // 2)], mode="edge")
+    window = np.lib.stride_tricks.sliding_window_view(padded, fine + 1, axis=-1)
+    bend_up, bend_down = window.max(axis=-1)[..., ::fine], -window.min(axis=-1)[..., ::fine]
     with np.errstate(divide="ignore"):
         return (np.where(bend_up > 0, BEND_MARGIN / bend_up, np.inf),
                 np.where(bend_down > 0, BEND_MARGIN / bend_down, np.inf))
@@ -224,27 +226,28 @@ def sweep_tubes(curves: list[np.ndarray], radius: float, *, side: np.ndarray,
     if radius <= 0 or not np.isfinite(radius):
         raise ValueError(f"radius must be a positive finite number, got {radius}")
     angles = np.linspace(0.0, 2 * np.pi, ring, endpoint=False)
+    cos_a, sin_a = np.cos(angles), np.sin(angles)
+    side = np.asarray(side, dtype=np.float64)
     pos_all, nrm_all, uv_all, faces_all = [], [], [], []
     offset = 0
-    side = np.asarray(side, dtype=np.float64)
-    for cp in curves:
-        cells = (cp.shape[0] - 3) / CONTROL_POINTS_PER_CELL
+    # yarns of the same length (all of a family, in a window) are swept together: (Y, K, 3)
+    for length, run in groupby(curves, key=len):
+        cp = np.stack(list(run))
+        cells = (length - 3) / CONTROL_POINTS_PER_CELL
         s_count = max(2, int(round(cells * samples_per_cell)) + 1)
-        pos, der = bspline(cp, s_count)
-        tangent = der / np.linalg.norm(der, axis=1, keepdims=True)
+        pos, der = bspline(cp, s_count)  # (Y, s_count, 3)
+        tangent = der / np.linalg.norm(der, axis=-1, keepdims=True)
         up = np.cross(side, tangent)  # in the yarn's vertical plane, pointing up (+z-ish)
-        if up[:, 2].mean() < 0:
-            up = -up
+        turned = up[..., 2].mean(axis=-1) < 0  # (Y,)
+        up = np.where(turned[:, None, None], -up, up)
         # u from the absolute position along the yarn's axis, not the arc from the window's
         # start: the plies then sit at the same place whatever window of the fabric is built
         arc = pos @ np.abs(np.cross(side, (0.0, 0.0, 1.0)))
-        cos_a, sin_a = np.cos(angles), np.sin(angles)
-        n = (up[:, None, :] * cos_a[None, :, None] + side[None, None, :] * sin_a[None, :, None])
+        n = (up[:, :, None, :] * cos_a[None, None, :, None] + side * sin_a[None, None, :, None])
         above, below = bend_limits(cp, s_count, up)
-        reach_up = np.clip(radius * cos_a[None, :], -below[:, None], above[:, None])  # (rings, ring)
-        p = pos[:, None, :] + reach_up[..., None] * up[:, None, :] + (radius * sin_a)[None, :, None] * side
-        uv = np.stack(np.broadcast_arrays((arc / (2 * np.pi * radius))[:, None], (angles / (2 * np.pi))[None, :]),
-                      axis=-1)
+        reach_up = np.clip(radius * cos_a, -below[..., None], above[..., None])  # (Y, rings, ring)
+        p = pos[:, :, None, :] + reach_up[..., None] * up[:, :, None, :] + (radius * sin_a)[:, None] * side
+        uv = np.stack(np.broadcast_arrays((arc / (2 * np.pi * radius))[..., None], angles / (2 * np.pi)), axis=-1)
         pos_all.append(p.reshape(-1, 3))
         nrm_all.append(n.reshape(-1, 3))
         uv_all.append(uv.reshape(-1, 2))
@@ -252,23 +255,16 @@ def sweep_tubes(curves: list[np.ndarray], radius: float, *, side: np.ndarray,
         b = np.arange(s_count - 1)[:, None] * ring + (np.arange(ring)[None, :] + 1) % ring
         c, d = a + ring, b + ring
         quads = np.stack([a, c, b, b, c, d], axis=-1).reshape(-1, 3)
-        faces_all.append(quads + offset)
-        offset += s_count * ring
-    mesh = TubeMesh(positions=np.concatenate(pos_all).astype(np.float32),
+        # meshes are one-sided: a face's normal (c - a) × (b - a), along the yarn × around the
+        # ring (from up towards side), is -cross(side, tangent): outward where up was turned
+        outward = np.where(turned[:, None, None], quads, quads[:, [0, 2, 1]])
+        starts = offset + np.arange(cp.shape[0]) * (s_count * ring)
+        faces_all.append((outward + starts[:, None, None]).reshape(-1, 3))
+        offset += cp.shape[0] * s_count * ring
+    return TubeMesh(positions=np.concatenate(pos_all).astype(np.float32),
                     normals=np.concatenate(nrm_all).astype(np.float32),
                     texcoords=np.concatenate(uv_all).astype(np.float32),
                     faces=np.concatenate(faces_all).astype(np.uint32))
-    return _outward(mesh)
-
-
-def _outward(mesh: TubeMesh) -> TubeMesh:
-    """Flip the winding if the geometric normals point into the tubes (meshes are one-sided)."""
-    v = mesh.positions[mesh.faces].astype(np.float64)
-    geo = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
-    shading = mesh.normals[mesh.faces].sum(axis=1)
-    if np.sum(geo * shading) < 0:
-        return TubeMesh(mesh.positions, mesh.normals, mesh.texcoords, mesh.faces[:, [0, 2, 1]].copy())
-    return mesh
 
 
 def fabric_meshes(pattern: np.ndarray, *, r_warp: float, r_weft: float,
