@@ -21,7 +21,7 @@ import numpy as np
 from . import params as wparams
 from .errors import PhotoError
 from .fit.config import PRESETS, FitConfig, cell_px_for
-from .fit.fidelity import captioned, fidelity
+from .fit.fidelity import captioned, faithful_figures, fidelity
 from .fit.target import align_cells, repeat_cells
 from .io import atomic_write_text
 
@@ -168,8 +168,6 @@ def faithful(report: dict, config: FitConfig) -> bool:
     """Whether a capture's render looks like its photo: at least ``config.faithful_sharpness``
     of its gradient energy and each family's colour within ``config.faithful_delta_e``
     (``report["fit"]["fidelity"]``; a family the pattern never shows is not judged)."""
-    from .fit.fidelity import faithful_figures
-
     f = report["fit"]["fidelity"]
     return faithful_figures(f["sharpness"], f["delta_e"], min_sharpness=config.faithful_sharpness,
                             max_delta_e=config.faithful_delta_e)
