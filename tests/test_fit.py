@@ -187,6 +187,31 @@ def test_the_fit_solves_colours_that_gradient_steps_left_black():
     assert solved.loss < 0.5 * plain.loss
 
 
+def test_the_gain_a_photo_too_bright_for_the_rig_needs_is_the_one_its_colours_ask():
+    """Colours (0.9, 0.6) photographed 2.5 times brighter than the rig lights them would need
+    colours 2.25 and 1.5: the smallest gain that brings every colour within [0, 1] is 2.25 / 2.5
+    of the photo's, i.e. a factor 2.25 on a gain of 1 (bisection: within 1%), the same as
+    solving over every pixel."""
+    from scipy.optimize import lsq_linear
+
+    from weavecap.fit.joint import _range_scale
+
+    rng = np.random.default_rng(4)
+    a = rng.random((5000, 2))
+    d = 0.05 * rng.random(5000)
+    systems = [(a, d, 2.5 * a @ np.array([0.9, 0.6]) + d)] * 2
+    lo, hi, k = np.zeros(2), np.ones(2), np.ones(2)
+    scale = _range_scale(systems, k, lo, hi)
+    assert 2.25 * 0.99 <= scale <= 2.25 * 1.01
+
+    def per_pixel(f: float, upper) -> float:  # the loss over every pixel, as the problem reads
+        return sum(float(np.sum((f * a @ lsq_linear(f * a, t - d, bounds=(lo, upper)).x - (t - d)) ** 2))
+                   for a, d, t in systems)
+
+    good = per_pixel(1.0, np.inf) * 1.001 + 1e-15
+    assert per_pixel(scale, hi) <= good < per_pixel(scale * 0.99, hi)
+
+
 def test_colour_solve_recovers_a_known_exposure_and_white_balance():
     """A photo taken with a gain per channel (exposure × white balance): the back light seen
     through the gaps does not depend on the fabric's colours, so it fixes the gain, and the

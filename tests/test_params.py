@@ -115,6 +115,16 @@ def test_replace_refuses_out_of_range_and_unknown_keys():
     with pytest.raises(ParamsError) as err:
         plain().replace({"specular.shininess": 0.5})
     assert err.value.field == "specular.shininess"
+    # each replaced value is checked, whatever its kind, and a good one beside it does not hide it
+    for bad, field in (({"warp.radius": 2.0, "specular.ior": float("nan")}, "specular.ior"),
+                       ({"weft.body_reflection": (0.2, 1.2, 0.2)}, "weft.body_reflection[1]"),
+                       ({"pattern": [[0, 2], [1, 0]]}, "pattern[0][1]"),
+                       ({"warp": {"radius": -1.0, "body_reflection": [0.5] * 3, "body_subsurface": [0.5] * 3}},
+                        "warp.radius"),
+                       ({"plies": 8}, "plies")):
+        with pytest.raises(ParamsError) as err:
+            plain().replace(bad)
+        assert err.value.field == field, bad
 
 
 def test_every_bad_file_is_refused(bad_params):

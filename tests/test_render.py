@@ -72,6 +72,21 @@ def test_same_seed_same_image_other_seed_differs():
     assert abs(a.mean() - c.mean()) < 0.01  # only the antialiasing jitter differs
 
 
+def test_a_geometry_set_back_to_what_is_built_keeps_the_scene_and_renders_alike():
+    """A radius or pattern set to the value already built (a search stepping back onto its last
+    trial) keeps the built scene; a real change rebuilds it, and stepping back renders as before."""
+    fabric = params.load(FIXTURES[0])
+    fs = build_scene(fabric, View(tiles=(1, 1), size=32, spp=2))
+    before, scene = render_numpy(fs, seed=1), fs.scene
+    fs.set("warp.radius", fabric.warp.radius)
+    fs.set("pattern", fabric.pattern.copy())
+    assert fs.scene is scene
+    fs.set("warp.radius", fabric.warp.radius + 0.5)
+    assert fs.scene is not scene and not np.array_equal(render_numpy(fs, seed=1), before)
+    fs.set("warp.radius", fabric.warp.radius)
+    assert np.array_equal(render_numpy(fs, seed=1), before)
+
+
 def test_quarter_turn_turns_the_picture():
     """--rotate 90 turns the fabric counter-clockwise in the image."""
     fabric = params.load([p for p in FIXTURES if p.stem == "twill_2_1"][0])

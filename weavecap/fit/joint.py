@@ -203,12 +203,20 @@ def _range_scale(systems: list, k_now: np.ndarray, lo: np.ndarray, hi: np.ndarra
     """
     from scipy.optimize import lsq_linear
 
+    # ||k f a x - b||² = ||k f r x - qᵀb||² + (||b||² - ||qᵀb||²) with a = q r: each loss below
+    # solves an (n, n) problem in place of one over every pixel
+    reduced = []
+    for (a, d, t), k in zip(systems, k_now):
+        b = t - k * d
+        q, r = np.linalg.qr(a)
+        qb = q.T @ b
+        reduced.append((k * r, qb, max(float(b @ b - qb @ qb), 0.0)))
+
     def loss(f: float, upper) -> float:
         total = 0.0
-        for (a, d, t), k in zip(systems, k_now):
-            b = t - k * d
-            x = lsq_linear(k * f * a, b, bounds=(lo, upper)).x
-            total += float(np.sum((k * f * a @ x - b) ** 2))
+        for kr, qb, rest in reduced:
+            x = lsq_linear(f * kr, qb, bounds=(lo, upper), method="bvls").x
+            total += float(np.sum((f * kr @ x - qb) ** 2)) + rest
         return total
 
     unbounded = loss(1.0, np.inf)

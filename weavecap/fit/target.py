@@ -154,7 +154,7 @@ def _whole_repeats(shape: tuple[int, int], cells: CellGrid) -> tuple[CellGrid, i
     return CellGrid(rows=rows, cols=cols), ky, kx
 
 
-def lattice_drift(blocks: np.ndarray, model: np.ndarray, c: int) -> tuple[np.ndarray, object]:
+def lattice_drift(blocks: np.ndarray, model: np.ndarray, c: int):
     """How the photo's lattice drifts from a regular one, measured on its repeats.
 
     Parameters
@@ -165,8 +165,8 @@ def lattice_drift(blocks: np.ndarray, model: np.ndarray, c: int) -> tuple[np.nda
 
     Returns
     -------
-    (coef, basis_fn): ``coef`` (terms, 2) of a smooth displacement field (dy, dx) in canvas px,
-    ``field(y, x) = basis(y, x) @ coef`` with y, x in repeats from the lattice's origin
+    ``field(y, x)``: the smooth displacement (dy, dx) in canvas px, (..., 2) with y, x
+    (broadcasting) in repeats from the lattice's origin
     (affine, plus quadratic terms when there are at least QUADRATIC_BLOCKS repeats: the
     residue of a homography). Fitted by least squares to each repeat's
     :func:`correlation_shift`, twice, the second time without repeats more than 3 MADs (at
@@ -178,22 +178,25 @@ def lattice_drift(blocks: np.ndarray, model: np.ndarray, c: int) -> tuple[np.nda
     yy, xx = np.meshgrid(np.arange(ky) + 0.5, np.arange(kx) + 0.5, indexing="ij")
     quadratic = ky * kx >= QUADRATIC_BLOCKS
 
-    def basis(y, x):
-        y, x = np.asarray(y, float).ravel(), np.asarray(x, float).ravel()
-        cols = [np.ones_like(y), y, x] + ([y * y, y * x, x * x] if quadratic else [])
-        return np.stack(cols, axis=1)
+    def terms(y, x) -> list:  # the field's terms, broadcasting y against x
+        y, x = np.asarray(y, float), np.asarray(x, float)
+        return [np.ones(()), y, x] + ([y * y, y * x, x * x] if quadratic else [])
 
-    a = basis(yy, xx)
+    a = np.stack([np.broadcast_to(t, yy.shape).ravel() for t in terms(yy, xx)], axis=1)
     keep = np.all(np.abs(shifts) <= DRIFT_MAX_CELLS * c, axis=1)
-    if keep.sum() < a.shape[1]:
-        return np.zeros((a.shape[1], 2)), basis
-    coef = np.linalg.lstsq(a[keep], shifts[keep], rcond=None)[0]
-    residual = np.linalg.norm(shifts - a @ coef, axis=1)
-    mad = np.median(residual[keep])
-    refit = keep & (residual <= max(3.0 * 1.4826 * mad, 0.1))
-    if refit.sum() >= a.shape[1]:
-        coef = np.linalg.lstsq(a[refit], shifts[refit], rcond=None)[0]
-    return coef, basis
+    coef = np.zeros((a.shape[1], 2))
+    if keep.sum() >= a.shape[1]:
+        coef = np.linalg.lstsq(a[keep], shifts[keep], rcond=None)[0]
+        residual = np.linalg.norm(shifts - a @ coef, axis=1)
+        mad = np.median(residual[keep])
+        refit = keep & (residual <= max(3.0 * 1.4826 * mad, 0.1))
+        if refit.sum() >= a.shape[1]:
+            coef = np.linalg.lstsq(a[refit], shifts[refit], rcond=None)[0]
+
+    def field(y, x) -> np.ndarray:  # term by term, each at its own shape: a whole canvas's (pixels, terms) is ~50 MB
+        return sum(np.multiply.outer(t, k) for t, k in zip(terms(y, x), coef))
+
+    return field
 
 
 def mean_repeat(image: np.ndarray, cells: CellGrid, c: int, model: np.ndarray | None = None, *,
@@ -245,9 +248,8 @@ def mean_repeat(image: np.ndarray, cells: CellGrid, c: int, model: np.ndarray | 
     median, spread = median_and_spread(canvas)
     if model is not None and ky * kx >= 3:
         blocks = canvas.mean(axis=2).reshape(ky, h, kx, w).transpose(0, 2, 1, 3)
-        coef, basis = lattice_drift(blocks, np.asarray(model).mean(axis=2), c)
-        y, x = np.meshgrid((np.arange(ky * h) + 0.5) / h, (np.arange(kx * w) + 0.5) / w, indexing="ij")
-        field = (basis(y, x) @ coef).reshape(ky * h, kx * w, 2)  # canvas px
+        drift = lattice_drift(blocks, np.asarray(model).mean(axis=2), c)
+        field = drift(((np.arange(ky * h) + 0.5) / h)[:, None], ((np.arange(kx * w) + 0.5) / w)[None, :])  # canvas px
         scale = np.array([np.diff(lattice.rows).mean(), np.diff(lattice.cols).mean()]) / c  # image px per canvas px
         if hold_phase:  # the drift from where the cells' own repeat is, not from the model
             field = field - correlation_shift(cell_canvas(image, cells, c).mean(axis=2),

@@ -236,6 +236,8 @@ class FabricScene:
         """Set one parameter by dotted key (or ``"pattern"``); a radius or a pattern rebuilds
         the geometry (milliseconds), any other value only changes what the kernels read."""
         if key in GEOMETRY_KEYS or key == "pattern":
+            if np.array_equal(np.asarray(value), self.fabric.get(key)):
+                return  # the geometry built already (a search stepping back onto its last trial)
             self.fabric = self.fabric.replace({key: value if key == "pattern" else float(value)})
             _rebuild(self)
             return
