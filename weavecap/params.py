@@ -128,7 +128,7 @@ class Fabric:
         The replaced values are validated (the rest already was): an out-of-range value raises
         :class:`ParamsError`.
         """
-        doc = to_dict(self)
+        doc, valid = to_dict(self), True
         for key, value in values.items():
             node = doc
             parts = key.split(".")
@@ -137,7 +137,8 @@ class Fabric:
             if parts[-1] not in node:
                 raise ParamsError("no such parameter", field=key)
             node[parts[-1]] = np.asarray(value).tolist() if not isinstance(value, str) else value
-        if not all(_field_valid(key, _at(doc, key)) for key in values):
+            valid = valid and _field_valid(key, node[parts[-1]])
+        if not valid:
             return from_dict(doc)  # the whole document: raises naming the field (or passes: a key under extra)
         if "pattern" in values:
             _check_pattern_shape(doc, None)
@@ -234,13 +235,6 @@ def _field_validator(key: str):
         if node is None:
             return None
     return jsonschema.Draft202012Validator({"$defs": schema["$defs"], **node})
-
-
-def _at(doc: dict, key: str) -> Any:
-    """The value at dotted ``key`` of a document."""
-    for part in key.split("."):
-        doc = doc[part]
-    return doc
 
 
 def _field_valid(key: str, value: Any) -> bool:
