@@ -40,6 +40,21 @@ def test_draft_recovers_an_independent_photo(name, tmp_path):
     assert "specular.coefficient" in cap.report["modelled"]["fixed"]
 
 
+def test_a_random_8x8_of_one_colour_is_read_off_its_cells_looks(tmp_path):
+    """The bench's random 8×8 (photo 14): both families one dark blue, flat yarns, a low side
+    light casting long shadows at the floats' ends. The loss and the edge votes both pointed
+    away from the truth, and the fit ended 15 cells off it (Sessions 14-19); the cells' looks
+    (:func:`weavecap.fit.rounds.context_check`) read it. Measured at draft (45 s): the edges'
+    decode taken first, its context misfit 0.69; the truth found at 0.21 and taken, its loss
+    0.96 times the decode's."""
+    spec = hp.bench_specs()[14]
+    cap = capture(hp.write_photo(tmp_path / f"{spec.name}.jpg", spec, seed=3), CaptureOptions(quality="draft"))
+    assert equal_up_to_shift(cap.fabric.pattern, spec.pattern), weave_name(cap.fabric.pattern)
+    context = cap.report["pre_estimation"]["context"]
+    assert context["taken"] and context["fitted_misfit"] > 2.5 * context["misfit"], context
+    assert max(cap.report["fit"]["fidelity"]["delta_e"].values()) < 5
+
+
 def test_a_photo_brighter_than_the_rig_is_not_blown_out(tmp_path):
     """The bench's back-lit pink and green twill 2/1, 0.85 stop over (at 640 px, draft): the
     photo is brighter than the rig can make a white fabric. The fit once ended with every

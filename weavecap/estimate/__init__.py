@@ -7,6 +7,8 @@
 - :mod:`.initializer` — §5.3, the VGG-style network, or Table 1 defaults (§7.3);
 - :mod:`.training`, :mod:`.sampling` — its training data and training (``weavecap train-initializer``);
 - :mod:`.weave_name` — the weave's name for people;
+- :mod:`.orientation`, :mod:`.context` — the pattern read off the photo without the model: the
+  edge votes per cell, and the pattern its cells' looks explain best (the fit's end stages);
 - :mod:`.preestimate` — all of it in order: :func:`pre_estimate`; the photo's exposure against the rig,
   :func:`photo_exposure`.
 """

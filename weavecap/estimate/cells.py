@@ -165,6 +165,13 @@ def gap_phase(canvas: np.ndarray, shape: tuple[int, int]) -> tuple[float, float]
     return out[0], out[1]
 
 
+def gap_aligned(canvas: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """``canvas`` rolled (it wraps) by :func:`gap_phase`, whole pixels, so that its cells run
+    from gap to gap."""
+    gy, gx = gap_phase(canvas, shape)
+    return np.roll(canvas, (-int(round(gy)), -int(round(gx))), axis=(0, 1))
+
+
 def _circular_peak(values: np.ndarray) -> float:
     """Index of the maximum of a circular 1-D array, to a fraction of a sample: the vertex of
     the parabola through it and its two neighbours (the integer index where that is flat)."""

@@ -69,10 +69,9 @@ def cell_votes(canvas: np.ndarray, shape: tuple[int, int], *, band: float = BAND
 def aligned_votes(canvas: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     """:func:`cell_votes` of a canvas whose cells need not run from gap to gap: it is first
     rolled (it wraps) by :func:`weavecap.estimate.cells.gap_phase`, whole pixels."""
-    from .cells import gap_phase
+    from .cells import gap_aligned
 
-    gy, gx = gap_phase(canvas, shape)
-    return cell_votes(np.roll(canvas, (-int(round(gy)), -int(round(gx))), axis=(0, 1)), shape)
+    return cell_votes(gap_aligned(canvas, shape), shape)
 
 
 def vote_pattern(votes: np.ndarray) -> np.ndarray:

@@ -97,6 +97,12 @@ class FitConfig:
         fitted one's)
     edge_loss_cap : the decoded pattern is taken only if its loss is at most this many times
         the fitted one's (on the independent bench the right decodes rose by 1.08–1.38)
+    context_margin : the fit also tries the pattern the photo's cells' looks explain best
+        (:func:`weavecap.fit.rounds.context_check`) when that leaves less of their looks
+        unexplained than the fitted pattern by more than this factor (on the independent
+        bench's final targets, wrong context patterns explained the looks at most 1.5 times
+        better than the truth, on repeats too small for the stage; the random 8×8's truth 2.1
+        times better than its fit), on the product rule and ``edge_loss_cap`` as above
     widen_ratio : a fitted yarn radius under this share of the other family's is refitted at
         the other's (:func:`weavecap.fit.rounds.widen_check`; 0 never)
     phase_margin, phase_loss_tolerance : a whole-cell shift of the fitted pattern whose warp
@@ -148,6 +154,7 @@ class FitConfig:
     start_tie_band: float = 0.10
     edge_margin: float = 1.1
     edge_loss_cap: float = 2.0
+    context_margin: float = 1.5
     widen_ratio: float = 0.5
     phase_margin: float = 1.1
     phase_loss_tolerance: float = 0.1
