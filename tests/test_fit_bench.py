@@ -62,5 +62,6 @@ def test_independent_rows_are_scored_on_pattern_and_fidelity():
     table = fit_bench.independent_table([row])
     assert "| normal | 4/4 |" in table and "75%" in table and table.endswith("| 1 |") and fit_bench.table([row]) == ""
     ex = fit_bench.exposure_table([{"fabric": "f", "preset": "draft", "fitted": 4, "delta_e_max": {"warp": 1.23,
-                                    "weft": 2.5}, "gain": {"as shot": [1.0, 1.0, 1.0]}}])
-    assert "| f | draft | rig | 4/4 | 1.2 | 2.5 |" in ex
+                                    "weft": 2.5}, "rendered": {"warp": 0.81, "weft": 0.6},
+                                    "rendered_stops": {"warp": 0.3, "weft": 0.26}, "gain": {"as shot": [1.0, 1.0, 1.0]}}])
+    assert "| f | draft | rig | 4/4 | 1.2 / 2.5 | 0.8 / 0.6 | 0.3 / 0.3 |" in ex

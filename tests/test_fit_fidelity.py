@@ -141,3 +141,24 @@ def test_a_render_made_faithful_is_more_faithful_though_sharper_than_the_photo()
     assert not more_faithful(Fidelity(1.197, {"warp": 2.86, "weft": 0.0}, 0.45, {}), twill, **bounds)
     assert faithful_figures(0.9, {"warp": 3.0, "weft": None}, **bounds)  # a family never shown is not judged
     assert not faithful_figures(float("nan"), {"warp": 3.0}, **bounds)
+
+
+def test_rendered_family_colours_follow_each_familys_own_colours():
+    """The exposure check's measure (:func:`weavecap.fit.fidelity.rendered_family_lab`): a
+    family whose body colours are halved renders darker, the other family stays as it was,
+    and the same fabric renders the same colours."""
+    from pathlib import Path
+
+    from skimage.color import deltaE_ciede2000
+
+    from weavecap import params
+    from weavecap.fit.fidelity import rendered_family_lab
+
+    fabric = params.load(Path(__file__).resolve().parents[1] / "fixtures" / "params" / "twill_2_1.json")
+    base = rendered_family_lab(fabric, cell_px=12)
+    assert all(np.isfinite(base[f]).all() for f in ("warp", "weft"))
+    assert all(np.allclose(base[f], rendered_family_lab(fabric, cell_px=12)[f]) for f in ("warp", "weft"))
+    keys = ("warp.body_reflection", "warp.body_subsurface")
+    darker = rendered_family_lab(fabric.replace({k: tuple(0.5 * np.asarray(fabric.get(k))) for k in keys}), cell_px=12)
+    assert darker["warp"][0] < base["warp"][0] - 2.5  # measured 3.4 (the highlight stays)
+    assert deltaE_ciede2000(darker["weft"], base["weft"]) < 1.0

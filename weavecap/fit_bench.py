@@ -188,11 +188,13 @@ def exposure_invariance(preset: str, folder: Path, *, seed: int = 11, exposure: 
     """Fit each of :data:`EXPOSURE_FABRICS` (from :func:`weavecap.heightfield_photos.bench_specs`)
     under every :data:`EXPOSURE_VARIANTS` camera (exposure and white balance relative to a
     neutral one), with ``weavecap fit --exposure`` ``exposure``, and measure how far the fitted
-    fabric colours (``params.json``'s body reflection of warp and weft, CIELAB) move: per fabric
-    and family, the largest CIEDE2000 between any two variants, and each variant's fitted gain."""
-    from skimage.color import deltaE_ciede2000
-
+    fabric colours move: per fabric and family, the largest CIEDE2000 between any two variants
+    of ``params.json``'s body reflection (``delta_e_max``) and of the colour the fabric renders
+    under a fixed light (:func:`weavecap.fit.fidelity.rendered_family_lab`; ``rendered``, and
+    ``rendered_stops`` over the three exposures alone, without the cast), and each variant's
+    fitted gain."""
     from .estimate.colour import linear_to_lab
+    from .fit.fidelity import rendered_family_lab
     from .heightfield_photos import bench_specs, with_camera, write_photo
     from .pipeline import CaptureOptions, capture
 
@@ -200,7 +202,7 @@ def exposure_invariance(preset: str, folder: Path, *, seed: int = 11, exposure: 
     specs = {s.name: s for s in bench_specs(seed=seed)}
     rows = []
     for name in EXPOSURE_FABRICS:
-        spec, colours, gains = specs[name], {}, {}
+        spec, colours, rendered, gains = specs[name], {}, {}, {}
         for label, (stops, cast) in EXPOSURE_VARIANTS.items():  # around a neutral camera
             variant = with_camera(spec, exposure_stops=stops, white_balance=cast)
             path = write_photo(folder / f"{name}_{label.replace(' ', '_').replace('%', '')}.jpg", variant, seed=seed)
@@ -208,28 +210,43 @@ def exposure_invariance(preset: str, folder: Path, *, seed: int = 11, exposure: 
             if cap.fabric is None:
                 continue
             colours[label] = {f: linear_to_lab(cap.fabric.get(f"{f}.body_reflection")) for f in ("warp", "weft")}
+            rendered[label] = rendered_family_lab(cap.fabric)
             gains[label] = cap.report["fit"]["light"]["gain"]
             progress(f"{preset:6s} --exposure {exposure} {name} {label:16s} gain {gains[label]}  "
-                     f"warp {np.round(colours[label]['warp'], 1)} weft {np.round(colours[label]['weft'], 1)}")
-        spread = {}
-        for f in ("warp", "weft"):
-            labs = [c[f] for c in colours.values()]
-            spread[f] = max((float(deltaE_ciede2000(a, b)) for i, a in enumerate(labs) for b in labs[i + 1:]),
-                            default=float("nan"))
+                     f"warp {np.round(colours[label]['warp'], 1)} weft {np.round(colours[label]['weft'], 1)}  "
+                     f"rendered warp {np.round(rendered[label]['warp'], 1)} weft {np.round(rendered[label]['weft'], 1)}")
+        stops = {k: v for k, v in rendered.items() if EXPOSURE_VARIANTS[k][1] == (1.0, 1.0, 1.0)}
         rows.append({"fabric": name, "preset": preset, "exposure": exposure, "fitted": len(colours),
-                     "delta_e_max": spread, "gain": gains})
+                     "delta_e_max": _largest_difference(colours), "rendered": _largest_difference(rendered),
+                     "rendered_stops": _largest_difference(stops), "gain": gains})
     return rows
 
 
+def _largest_difference(colours: dict[str, dict[str, np.ndarray]]) -> dict[str, float]:
+    """Per family, the largest CIEDE2000 between any two of ``colours`` ({variant: {family:
+    CIELAB}}); NaN with fewer than two."""
+    from skimage.color import deltaE_ciede2000
+
+    out = {}
+    for family in ("warp", "weft"):
+        labs = [c[family] for c in colours.values()]
+        out[family] = max((float(deltaE_ciede2000(a, b)) for i, a in enumerate(labs) for b in labs[i + 1:]),
+                          default=float("nan"))
+    return out
+
+
 def exposure_table(rows: list[dict]) -> str:
-    """The exposure-invariance table (markdown): largest ΔE2000 between the variants' colours."""
-    out = ["| fabric | preset | --exposure | variants fitted | warp ΔE2000 (max pair) | weft ΔE2000 (max pair) | "
-           "fitted gains |", "|" + "---|" * 7]
+    """The exposure-invariance table (markdown): largest ΔE2000 between the variants' colours,
+    warp / weft: the body reflection, the rendered colour, the rendered colour over the stops."""
+    out = ["| fabric | preset | --exposure | variants fitted | body reflection ΔE2000 (max pair) | "
+           "rendered ΔE2000 (max pair) | rendered, the stops alone | fitted gains |", "|" + "---|" * 8]
+    nan = {"warp": float("nan"), "weft": float("nan")}
     for r in rows:
         gains = "; ".join(f"{k}: {', '.join(f'{v:.2f}' for v in g)}" for k, g in r["gain"].items())
+        pairs = " | ".join(f"{d['warp']:.1f} / {d['weft']:.1f}" for d in
+                           (r["delta_e_max"], r.get("rendered", nan), r.get("rendered_stops", nan)))
         out.append(f"| {r['fabric']} | {r['preset']} | {r.get('exposure', 'rig')} | "
-                   f"{r['fitted']}/{len(EXPOSURE_VARIANTS)} | {r['delta_e_max']['warp']:.1f} | "
-                   f"{r['delta_e_max']['weft']:.1f} | {gains} |")
+                   f"{r['fitted']}/{len(EXPOSURE_VARIANTS)} | {pairs} | {gains} |")
     return "\n".join(out)
 
 

@@ -97,6 +97,22 @@ def mean_lab(image: np.ndarray, mask: np.ndarray) -> np.ndarray:
     return linear_to_lab(np.clip(np.asarray(image, np.float64)[mask][:, :3].mean(axis=0), 0.0, 1.0))
 
 
+def rendered_family_lab(fabric, *, rig: str = "both", cell_px: int = 24, spp: int = 4) -> dict[str, np.ndarray]:
+    """Each yarn family's colour as ``fabric`` renders under a fixed light: CIELAB of the mean
+    linear colour at the centres of the cells the family tops (as :func:`fidelity` reads
+    them), one repeat rendered head-on under the ``rig`` light at unit gain. What a capture's
+    colours look like, whatever photo they came from: a body reflection alone can trade with
+    the subsurface colour, which the photo does not tell apart (report.json's standard errors).
+    Returns {"warp": (3,), "weft": (3,)} (NaN for a family the pattern never shows)."""
+    from ..model.render import render_numpy
+    from ..model.scene import View, build_scene, light_rig
+
+    size = cell_px * max(fabric.pattern.shape)
+    image = render_numpy(build_scene(fabric, View(tiles=(1, 1), size=size, spp=spp), light=light_rig(rig)))
+    masks = family_masks(fabric.pattern, image.shape[:2])
+    return {family: mean_lab(image, mask) for family, mask in masks.items()}
+
+
 def fidelity(photo: np.ndarray, render: np.ndarray, pattern: np.ndarray, *, centre_share: float = 0.5) -> Fidelity:
     """The fidelity figures of ``render`` against ``photo``.
 
