@@ -9,6 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from registered_fits import registered_fit as _registered_fit
+
 from weavecap import params
 from weavecap.estimate.cells import CellGrid
 from weavecap.estimate.forward import RepeatRenderer
@@ -495,16 +497,6 @@ def test_votes_read_which_yarn_runs_on_top():
         rolled = aligned_votes(np.roll(canvas, (16 * 2 + 5, 7), axis=(0, 1)), shape)
         assert np.mean(vote_pattern(rolled) == np.roll(pattern, (2, 0), axis=(0, 1))) >= 0.9
     assert agreement(pattern, np.zeros(shape)) == 0.5
-
-
-def _registered_fit(fabric, loss, *, target):
-    """A :class:`weavecap.fit.rounds.RegisteredFit` of ``fabric`` at ``loss`` on ``target``, as
-    a faked round returns it."""
-    from weavecap.fit import rounds
-    from weavecap.fit.joint import FitResult
-
-    result = FitResult(fabric=fabric, loss=loss, history=[loss], iterations=1, seconds=0.0, stopped="iterations")
-    return rounds.RegisteredFit(result=result, target=target, cells=None, blur_px=0.0)
 
 
 def _biased(votes, gain):

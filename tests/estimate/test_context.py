@@ -4,8 +4,11 @@ with weavecap's forward model)."""
 
 from __future__ import annotations
 
+from functools import partial
+
 import numpy as np
 import pytest
+from registered_fits import registered_fit
 
 from weavecap.estimate.context import (MIN_CELLS, cell_looks, context_misfit, context_pattern, looks_gram,
                                        shifted_misfit)
@@ -86,15 +89,6 @@ def test_looks_and_misfits_on_degenerate_canvases():
         context_pattern(looks_gram(cell_looks(drawn, truth.shape)), [np.zeros(truth.shape, np.uint8)])
 
 
-def _fit_of(fabric, loss, *, target):
-    """A :class:`weavecap.fit.rounds.RegisteredFit` of ``fabric`` at ``loss`` on ``target``."""
-    from weavecap.fit import rounds
-    from weavecap.fit.joint import FitResult
-
-    result = FitResult(fabric=fabric, loss=loss, history=[loss], iterations=1, seconds=0.0, stopped="iterations")
-    return rounds.RegisteredFit(result=result, target=target, cells=None, blur_px=0.0)
-
-
 @pytest.mark.parametrize("case, loss_ratio, taken", [
     ("random 8x8", 0.96, True),   # photo 14: the truth fitted at 0.96 times the edges' decode's loss
     ("random 8x8", 2.5, False),   # past edge_loss_cap: the fitted pattern stays
@@ -118,7 +112,7 @@ def test_the_cells_looks_get_their_word_on_the_pattern(monkeypatch, case, loss_r
     target = _repeat(truth)
     here = shifted_misfit(truth, looks_gram(cell_looks(target, shape)))[1]
     fitted = satin(8, 3) if case == "satin 8" else _flipped(here, 12, 5)
-    fit_of = lambda fabric, loss: _fit_of(fabric, loss, target=target)  # noqa: E731
+    fit_of = partial(registered_fit, target=target)
     tried = []
     monkeypatch.setattr(rounds, "_fit_round", lambda prepared, cells, fabric, rig, config, **kw:
                         tried.append(fabric) or fit_of(fabric, 0.01 * loss_ratio))

@@ -121,23 +121,13 @@ def context_pattern(gram: np.ndarray, starts: list[np.ndarray]) -> tuple[np.ndar
     (every weft and warp keeps both states) from each of ``starts`` ((n_e, n_a) each, in the
     canvas's phase): the one that lowers the misfit most, until none does. Returns (pattern
     (n_e, n_a) uint8, its misfit); of a pattern and its every cell flipped, the one reached."""
-    from .sampling import interlacing
+    from .sampling import descend_by_flips, interlacing
 
     best = (None, np.inf)
     for start in starts:
-        p = np.asarray(start, dtype=np.uint8).copy()
-        if not interlacing(p):
+        if not interlacing(np.asarray(start)):
             continue
-        misfit = context_misfit(p, gram)
-        while True:
-            flips = np.repeat(p[None], p.size, axis=0)
-            flips.reshape(p.size, -1)[np.arange(p.size), np.arange(p.size)] ^= 1
-            ok = interlacing(flips)
-            scores = [context_misfit(q, gram) if good else np.inf for q, good in zip(flips, ok)]
-            k = int(np.argmin(scores))
-            if scores[k] >= misfit - 1e-12:
-                break
-            p, misfit = flips[k], float(scores[k])
+        p, misfit = descend_by_flips(start, lambda stack: np.array([context_misfit(q, gram) for q in stack]))
         if misfit < best[1]:
             best = (p, misfit)
     if best[0] is None:

@@ -167,7 +167,7 @@ def decode_pattern(votes: np.ndarray) -> tuple[np.ndarray, float]:
     misfit). On the final targets of the independent bench photos (main's fits of session 12)
     it gave the true pattern on 17 of 18, faces, directions and a random 6×6 included (the fits
     had 7 wrong); the random 8×8's target was too far off to vote."""
-    from .sampling import interlacing
+    from .sampling import descend_by_flips, interlacing
 
     v = np.asarray(votes, np.float64)
     if v.ndim != 2 or not np.isfinite(v).all():
@@ -177,23 +177,11 @@ def decode_pattern(votes: np.ndarray) -> tuple[np.ndarray, float]:
     starts += [((j + d * i) % v.shape[1] < v.shape[1] / 2).astype(np.uint8) for d in (1, -1)]
     starts.append(((i + j) % 2).astype(np.uint8))
     seen, best = set(), (None, np.inf)
-    for p in starts:
-        if p.tobytes() in seen or not interlacing(p):
+    for start in starts:
+        if start.tobytes() in seen or not interlacing(start):
             continue
-        seen.add(p.tobytes())
-        misfit = float(vote_misfit(p, v))
-        while True:  # flip the one cell that lowers the misfit most, until none does
-            flips = np.repeat(p[None], p.size, axis=0)
-            flips.reshape(p.size, -1)[np.arange(p.size), np.arange(p.size)] ^= 1
-            ok = interlacing(flips)
-            if not ok.any():
-                break
-            scores = np.where(ok, vote_misfit(flips, v), np.inf)
-            k = int(np.argmin(scores))
-            if scores[k] >= misfit - 1e-12:
-                break
-            p, misfit = flips[k], float(scores[k])
-            seen.add(p.tobytes())
+        seen.add(start.tobytes())
+        p, misfit = descend_by_flips(start, lambda stack: vote_misfit(stack, v))
         if misfit < best[1]:
             best = (p, misfit)
     if best[0] is None:

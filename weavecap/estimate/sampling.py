@@ -72,6 +72,27 @@ def interlacing(patterns: np.ndarray) -> np.ndarray:
             & (p.min(axis=-2).max(axis=-1) == 0) & (p.max(axis=-2).min(axis=-1) == 1))
 
 
+def descend_by_flips(pattern: np.ndarray, score) -> tuple[np.ndarray, float]:
+    """Greedy single-cell flips from ``pattern`` (n_e, n_a), every weft and warp kept
+    interlacing: the flip that lowers ``score`` most, until none does. ``score`` maps a stack
+    of patterns (k, n_e, n_a) to their (k,) values. Returns (pattern uint8, its score)."""
+    p = np.asarray(pattern, dtype=np.uint8).copy()
+    current = float(score(p[None])[0])
+    while True:
+        flips = np.repeat(p[None], p.size, axis=0)
+        flips.reshape(p.size, -1)[np.arange(p.size), np.arange(p.size)] ^= 1
+        ok = interlacing(flips)
+        if not ok.any():
+            break
+        scores = np.full(p.size, np.inf)
+        scores[ok] = score(flips[ok])
+        k = int(np.argmin(scores))
+        if scores[k] >= current - 1e-12:
+            break
+        p, current = flips[k], float(scores[k])
+    return p, current
+
+
 def random_binary(rng: np.random.Generator, shape: tuple[int, int]) -> np.ndarray:
     """A random (wefts, warps) 0/1 pattern in which every yarn interlaces."""
     while True:
