@@ -31,9 +31,10 @@ from .options import (check_batch_options, force_option, jobs_option, quiet_opti
 @jobs_option("Photos fitted")
 @scheduler_option("photo")
 @click.option("--start-from", "start_from", type=click.Path(dir_okay=False, path_type=Path),
-              help="Warm start: begin the fit at this params.json instead of the pre-estimate.")
+              help="Warm start: begin the fit at this params.json instead of the pre-estimate (on its repeat).")
 @click.option("--pattern", "pattern_file", type=click.Path(dir_okay=False, path_type=Path),
-              help="A known weave pattern (params .json, .wif weaving draft, or a text file of 0/1 rows), kept fixed.")
+              help="A known weave pattern (params .json, .wif weaving draft, or a text file of 0/1 rows), kept fixed; "
+                   "its repeat is used where the photo shows a shorter one.")
 @click.option("--exposure", type=click.Choice(["rig", "photo"]), default="rig", show_default=True,
               help="Colours against the light rig (photos exposed like the rig), or against each photo's own "
                    "exposure: the same fabric shot darker or brighter gets the same colours (a catalogue shot "

@@ -211,19 +211,21 @@ def capture_under_rig(photo_path: str | Path, options: CaptureOptions, *,
 
     say("preparing (rectify, regularize, repeat, grid)")
     t = time.perf_counter()
-    prepared = prepare_photo(photo.rgb)
+    # a given pattern (or warm start) is the fabric's repeat: a photo shows the repeat's look,
+    # which can be shorter (a grey 2/2 twill's complement looks alike) or, held once, hidden
+    given = options.pattern if options.pattern is not None else options.start_from
+    prepared = prepare_photo(photo.rgb, repeat=None if given is None else given.shape)
     timings["prepare"] = time.perf_counter() - t
     if isinstance(prepared, Rejected):
         report["checks"] = prepared.to_json()["checks"]
         return _rejected(report, prepared.reason, prepared.code, timings, t0)
     prep = prepared.to_json()
     report["rectification"], report["grid"] = prep["rectification"], prep["grid"]
+    if given is not None:
+        report["grid"].update(repeat_given=True, repeat_in_photo=prep["checks"]["repeat_in_photo"])
     cells = repeat_cells(prepared, prepared.regularized.box)
     cells = align_cells(prepared.regularized.image, cells)
     shape = cells.shape
-    if options.pattern is not None and options.pattern.shape != shape:
-        raise wparams.ParamsError(f"the given pattern is {options.pattern.shape[0]}x{options.pattern.shape[1]} but "
-                                  f"the photo's repeat is {shape[0]} wefts x {shape[1]} warps", field="pattern")
 
     config = options.config
     c = cell_px_for(config, shape)
@@ -239,9 +241,6 @@ def capture_under_rig(photo_path: str | Path, options: CaptureOptions, *,
     t = time.perf_counter()
     if options.start_from is not None:
         start = options.start_from
-        if start.shape != shape:
-            raise wparams.ParamsError(f"--start-from has a {start.shape[0]}x{start.shape[1]} pattern but the photo's "
-                                      f"repeat is {shape[0]}x{shape[1]}", field="pattern")
         report["pre_estimation"] = {"parameters_from": "start_from"}
     else:
         pre = pre_estimate(prepared.regularized.image, cells, light=light, use_network=options.use_network)

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from synthetic import PATTERNS, render, residual_geometry
 
+from weavecap.errors import ParamsError
 from weavecap.prepare import PrepareConfig, Rejected, prepare_photo, rectify, regularize
 from weavecap.prepare.grid import axis_pitch, boundaries, folded_strength, refine_repeat, repeat_along
 from weavecap.prepare.illumination import flatten_illumination
@@ -126,6 +127,25 @@ def test_non_weaves_are_rejected_with_a_reason(kind):
     r = prepare_photo(img)
     assert isinstance(r, Rejected), kind
     assert r.reason and r.code in {"uniform", "no_texture", "too_fine", "not_woven", "no_grid", "few_yarns"}
+
+
+def test_a_given_repeat_is_used_in_place_of_the_one_the_photo_shows():
+    """A photo shows a repeat's look, which can be shorter than the fabric's: a repeat known
+    from elsewhere (``weavecap fit --pattern``) is used, over the same pitch, and the photo's own
+    is recorded; one longer than the photo, or not a multiple of the repeat the photo shows, is
+    refused with the counts."""
+    img, _ = render("twill_3_1", size=(256, 256), pitch_px=10, seed=2)
+    own = prepare_photo(img)
+    given = prepare_photo(img, repeat=(4, 8))
+    assert own.grid.yarns == (4, 4) and given.grid.yarns == (4, 8)
+    assert given.checks["repeat_in_photo"] == [4, 4] and given.checks["repeat_from"] == ["given", "given"]
+    assert given.grid.repeat_px[1] == pytest.approx(2 * own.grid.repeat_px[1], rel=0.01)
+    assert given.grid.repeat_px[0] == pytest.approx(own.grid.repeat_px[0], rel=0.01)
+    with pytest.raises(ParamsError, match="repeats over 40 wefts, but the photo shows only 25 whole wefts") as err:
+        prepare_photo(img, repeat=(40, 4))
+    assert err.value.field == "pattern"
+    with pytest.raises(ParamsError, match="the photo's repeat is 4 wefts x 4 warps, which does not divide it"):
+        prepare_photo(img, repeat=(6, 4))  # the photo repeats over 4 wefts: no fabric repeats over 6
 
 
 def test_config_is_plain_data():

@@ -27,6 +27,7 @@ from typing import Callable
 import cv2
 import numpy as np
 
+from ..errors import ParamsError
 from .config import PrepareConfig
 from .grid import (AxisGrid, Grid, axis_pitch, boundaries, cell_features, crossing_pitches, folded_strength, lattice_pitch,
                    lattice_yarns, power_spectrum, projection, refine_pitch, refine_repeat, repeat_along, spectrum_peaks)
@@ -311,7 +312,7 @@ def _central(img: np.ndarray, side: int) -> np.ndarray:
     return img[y0:y0 + bh, x0:x0 + bw]
 
 
-def prepare_photo(rgb: np.ndarray, config: PrepareConfig = PrepareConfig(), *,
+def prepare_photo(rgb: np.ndarray, config: PrepareConfig = PrepareConfig(), *, repeat: tuple[int, int] | None = None,
                   progress: Callable[[str], None] | None = None) -> Prepared | Rejected:
     """Rectify a weave photo, regularize it and find its yarn grid and minimum repeat (§4).
 
@@ -320,6 +321,13 @@ def prepare_photo(rgb: np.ndarray, config: PrepareConfig = PrepareConfig(), *,
     rgb : (H, W, 3) or (H, W) float32 linear image (as :func:`weavecap.photo.load_photo`
         gives).
     config : every hyper-parameter (:class:`~weavecap.prepare.config.PrepareConfig`).
+    repeat : (wefts, warps) of a repeat known from elsewhere (a given pattern's): used in
+        place of the one the photo shows, which ``checks["repeat_in_photo"]`` still records;
+        :class:`~weavecap.errors.ParamsError` (field ``pattern``) when the photo cannot hold it,
+        or when it shows a repeat (a DMF's dip) that does not divide it.
+        A photo shows a repeat's look, not always the pattern: a grey 2/2 twill's complement
+        looks alike, and a repeat the photo holds once only shows in its lattice (§4.3; the
+        real W127 and D16, docs/preparation.md).
     progress : called with the name of each stage as it starts (for a progress display).
 
     Returns
@@ -464,6 +472,22 @@ def prepare_photo(rgb: np.ndarray, config: PrepareConfig = PrepareConfig(), *,
         else:
             reps.append((n, refine_repeat(dmfs[i], pitch, n)))
     shown = [f or n is not None for f, n in zip(found, lattice_n)]
+    if repeat is not None:  # a repeat known from elsewhere: the regularized box must hold it once
+        seen = [n for n, _ in reps]
+        checks.update(repeat_in_photo=seen)
+        if any(src in ("cells", "pixels") and n % m for n, m, src in zip(repeat, seen, sources)):
+            # the photo repeats over m yarns (a DMF's dip): a repeat of the fabric is a multiple of it
+            raise ParamsError(f"the given pattern repeats over {repeat[0]} wefts x {repeat[1]} warps, but the "
+                              f"photo's repeat is {seen[0]} wefts x {seen[1]} warps, which does not divide it: "
+                              "give the pattern of the photo's repeat or of a multiple of it", field="pattern")
+        for i, (n, pitch, size, name) in enumerate(zip(repeat, (py, px), (rh_, rw_), ("wefts", "warps"))):
+            length = min(size, config.regularize_max_px)
+            if n * pitch > length:
+                raise ParamsError(f"the given pattern repeats over {n} {name}, but the photo shows only "
+                                  f"{int(length // pitch)} whole {name}: photograph a larger area, or give the "
+                                  "pattern of one repeat", field="pattern")
+            reps[i] = (n, refine_repeat(dmfs[i], pitch, n))
+        sources, shown = ["given", "given"], [True, True]
     checks.update(repeat_from=sources)
     checks.update(repeat_depth=depths)
     (ny, rep_h), (nx, rep_w) = reps
