@@ -17,10 +17,13 @@ OUTPUTS = ("rectified.png", "regularized.png", "grid.png", "prepare.json")
 @click.argument("photo", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("-o", "--output", "out_dir", required=True, type=click.Path(file_okay=False, path_type=Path),
               help="Folder for rectified.png, regularized.png, grid.png and prepare.json (created if needed).")
+@click.option("--pattern", "pattern_file", type=click.Path(dir_okay=False, path_type=Path),
+              help="A known weave pattern (params .json, .wif weaving draft, or a text file of 0/1 rows): its "
+                   "repeat is used where the photo shows a shorter one, as `weavecap fit --pattern` does.")
 @force_option
 @verbose_option
 @quiet_option
-def prepare(photo: Path, out_dir: Path, force: bool, verbose: int, quiet: bool) -> None:
+def prepare(photo: Path, out_dir: Path, pattern_file: Path | None, force: bool, verbose: int, quiet: bool) -> None:
     """Rectify PHOTO, regularize it, and find its yarn grid and minimum repeat.
 
     Writes into the output folder: rectified.png (the photo turned so that warps run
@@ -40,10 +43,12 @@ def prepare(photo: Path, out_dir: Path, force: bool, verbose: int, quiet: bool) 
     Examples:
       weavecap prepare swatch.jpg -o prepared/
       weavecap prepare swatch.dng -o prepared/ --force -v
+      weavecap prepare swatch.jpg -o prepared/ --pattern draft.wif
       for f in photos/*.jpg; do weavecap prepare "$f" -o "out/$(basename "$f" .jpg)" -q; done
     """
     from weavecap.errors import InputError, PhotoError
     from weavecap.io import atomic_write_text, refuse_overwrite
+    from weavecap.patterns import load_pattern
     from weavecap.photo import load_photo, save_png
     from weavecap.prepare import PrepareConfig, Rejected, prepare_photo
 
@@ -56,11 +61,12 @@ def prepare(photo: Path, out_dir: Path, force: bool, verbose: int, quiet: bool) 
     for name in OUTPUTS:
         refuse_overwrite(out_dir / name, force=force)
 
+    repeat = None if pattern_file is None else load_pattern(pattern_file).shape
     t0 = time.perf_counter()
     say(f"reading {photo}")
     loaded = load_photo(photo)
     say(f"{loaded.width}×{loaded.height} {loaded.source_format}, {loaded.bit_depth}-bit", 1)
-    result = prepare_photo(loaded.rgb, PrepareConfig(), progress=lambda stage: say(stage))
+    result = prepare_photo(loaded.rgb, PrepareConfig(), repeat=repeat, progress=lambda stage: say(stage))
     if isinstance(result, Rejected):
         if verbose:
             click.echo(json.dumps(result.to_json()["checks"], indent=1), err=True)
@@ -82,4 +88,6 @@ def prepare(photo: Path, out_dir: Path, force: bool, verbose: int, quiet: bool) 
     g = result.grid
     say(f"turned {result.rectification.rotation_deg:+.2f}°, pitch {g.pitch_px[0]:.2f} × {g.pitch_px[1]:.2f} px, "
         f"repeat {g.yarns[0]} wefts × {g.yarns[1]} warps ({g.repeat_px[0]:.1f} × {g.repeat_px[1]:.1f} px), "
-        f"{report['timings_s']['total']:.2f} s")
+        f"{report['timings_s']['total']:.2f} s"
+        + ("" if repeat is None else f"; the given pattern's repeat, the photo showing "
+           f"{result.checks['repeat_in_photo'][0]} × {result.checks['repeat_in_photo'][1]}"))

@@ -54,6 +54,23 @@ def test_writes_outputs_valid_against_the_report_schema(weave_png, tmp_path):
     assert "rectifying" in res.stderr
 
 
+def test_a_given_pattern_sets_the_repeat_and_one_the_photo_cannot_hold_exits_2(weave_png, tmp_path):
+    """The 3x3 twill given as a 3x6 pattern: grid.png and prepare.json show the 3x6 repeat,
+    and say the photo's own; a 3x30 pattern is longer than the photo: exit 2, nothing written."""
+    wide = tmp_path / "wide.txt"
+    wide.write_text("1 1 0 1 1 0\n0 1 1 0 1 1\n1 0 1 1 0 1\n")
+    res = _run(weave_png, "-o", tmp_path / "out", "--pattern", wide)
+    assert res.exit_code == 0, res.output
+    doc = json.loads((tmp_path / "out" / "prepare.json").read_text())
+    assert doc["grid"]["yarns"] == [3, 6] and doc["checks"]["repeat_in_photo"] == [3, 3]
+    assert "the photo showing 3 × 3" in res.stderr
+    long = tmp_path / "long.txt"
+    long.write_text(("1 1 0 " * 10 + "\n") + ("0 1 1 " * 10 + "\n") + ("1 0 1 " * 10 + "\n"))
+    res = _run(weave_png, "-o", tmp_path / "long", "--pattern", long)
+    assert res.exit_code == 2 and "repeats over 30 warps" in res.output
+    assert not (tmp_path / "long").exists()
+
+
 def test_quiet_prints_nothing(weave_png, tmp_path):
     res = _run(weave_png, "-o", tmp_path / "out", "-q")
     assert res.exit_code == 0 and res.output == ""
