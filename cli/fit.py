@@ -10,6 +10,24 @@ import click
 from .options import (check_batch_options, force_option, jobs_option, quiet_option, scheduler_option, seed_option,
                       verbose_option)
 
+#: the share of a yarn family's cell centres the camera clipped (``fit.fidelity.clipped``) from
+#: which the fit's line says so. Measured (draft): 0 on the own renders (their clipped gaps are
+#: no yarn) and on the exposure check's satin 5 as shot, 16% a stop brighter (whose colours
+#: moved by up to ΔE 6.5 against the as-shot's, docs/capture.md Session 21), 60% and 79% on the
+#: independent twill 2/1 and random 4×4, 22% and 12% on the real W027 and W103
+CLIPPED_NOTE = 0.05
+
+
+def clipping_note(record: dict) -> str:
+    """A line for the fit's summary when the camera clipped a yarn family's colour (at least
+    :data:`CLIPPED_NOTE` of its cell centres): how bright it is, the photo does not show."""
+    clipped = {k: v for k, v in record["fit"]["fidelity"].get("clipped", {}).items() if v is not None}
+    worst = max(clipped, key=clipped.get, default=None)
+    if worst is None or clipped[worst] < CLIPPED_NOTE:
+        return ""
+    return (f"\n  note: the camera clipped {clipped[worst]:.0%} of the {worst} yarns' centres: their colour is a lower "
+            "bound; shoot a stop darker")
+
 
 @click.command(context_settings={"max_content_width": 100})
 @click.argument("photos", nargs=-1, required=True, type=click.Path(dir_okay=False, path_type=Path), metavar="PHOTO...")
@@ -93,7 +111,7 @@ def fit(photos, out, quality, light, budget_s, jobs, scheduler, start_from, patt
             light = fit["light"]["rig"] + (f" light ({rigs} rigs tried)" if rigs > 1 else " light")
             say(f"{where} {photo}: {record['weave']}, {record['grid']['yarns'][0]}x{record['grid']['yarns'][1]} "
                 f"repeat, PSNR {fit['psnr_db']:.1f} dB, sharpness {fit['fidelity']['sharpness']}, {light}, "
-                f"{record['timings_s']['total']:.1f} s -> {event.item.folder}")
+                f"{record['timings_s']['total']:.1f} s -> {event.item.folder}{clipping_note(record)}")
         else:
             say(f"{where} {photo}: {event.line['status']}: {record.get('reason')}", error=True)
 

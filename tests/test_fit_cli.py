@@ -120,6 +120,20 @@ def test_a_bad_pattern_file_names_the_fix(tmp_path):
     assert "0 and 1" in result.output
 
 
+def test_the_fits_line_says_when_the_camera_clipped_a_familys_colour():
+    """From 5% of a family's cell centres clipped (``fit.fidelity.clipped``), the line names the
+    family and what to do; under it, or where no figure was taken, nothing."""
+    from weavecap.cli.fit import clipping_note
+
+    def record(clipped):
+        return {"fit": {"fidelity": {"clipped": clipped}}}
+
+    note = clipping_note(record({"warp": 0.0, "weft": 0.156}))
+    assert "16% of the weft yarns' centres" in note and "shoot a stop darker" in note
+    assert clipping_note(record({"warp": 0.049, "weft": 0.0})) == ""
+    assert clipping_note(record({"warp": None, "weft": 0.0})) == "" and clipping_note({"fit": {"fidelity": {}}}) == ""
+
+
 def _pattern_file(path: Path, pattern: np.ndarray) -> Path:
     path.write_text("\n".join(" ".join(map(str, row)) for row in pattern) + "\n")
     return path

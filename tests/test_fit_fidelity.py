@@ -36,6 +36,23 @@ def test_a_photo_against_itself_is_perfect():
     assert f.delta_e["warp"] < 1e-6 and f.delta_e["weft"] < 1e-6
 
 
+def test_the_share_of_each_familys_centres_the_camera_clipped():
+    """The weft a stop brighter: its stripes' crests pass the white and clip, the red warp does
+    not; the figure counts the centres of the weft's cells at the white (its colour is then a
+    lower bound), on the repeat as shot. With no value above 1 the white is 1; a
+    high-dynamic-range repeat (values above 1) clips nowhere."""
+    photo = _canvas(TWILL, RED, BLUE)
+    bright = np.minimum(_canvas(TWILL, RED, 2.5 * BLUE), 1.0)
+    masks = family_masks(TWILL, bright.shape[:2])
+    expected = float(np.any(bright >= 0.98, axis=-1)[masks["weft"]].mean())
+    assert 0.2 < expected < 0.8  # the stripes' crests, not whole cells
+    f = fidelity(photo, photo, TWILL, shot=bright)
+    assert f.clipped["warp"] == 0.0 and abs(f.clipped["weft"] - expected) < 1e-12
+    assert fidelity(photo, photo, TWILL).clipped == {"warp": 0.0, "weft": 0.0}
+    assert fidelity(photo, photo, TWILL, shot=2.5 * photo + 1.0).clipped == {"warp": 0.0, "weft": 0.0}
+    assert f.to_json()["clipped"]["weft"] == round(expected, 4)
+
+
 def test_a_blurred_copy_scores_low_sharpness():
     photo = _canvas(TWILL, RED, BLUE)
     blurred = gaussian_filter(photo, (C / 6, C / 6, 0), mode="wrap")

@@ -205,6 +205,21 @@ def test_save_png_clips_and_zeroes_nan(tmp_path):
         save_png(tmp_path / "bad.png", lin, bits=12)
 
 
+def test_clipped_counts_the_pixels_at_the_white_per_channel(tmp_path):
+    """A quarter of a PNG's pixels saturated in red, one eighth in all three: the shares per
+    channel; JPEG's error near the white still counts (254 of 255); an EXR, whose white is not
+    known, has none."""
+    lin = np.full((8, 8, 3), 0.3, np.float32)
+    lin[:2, :, 0] = 1.0
+    lin[7, :] = 1.0
+    lin[6, :, 2] = srgb_to_linear(np.float32(254 / 255))
+    save_png(tmp_path / "c.png", lin)
+    p = load_photo(tmp_path / "c.png")
+    assert p.clipped == [0.375, 0.125, 0.25]
+    save_exr(tmp_path / "c.exr", lin * 4)
+    assert load_photo(tmp_path / "c.exr").clipped is None
+
+
 def test_exr_round_trip_is_exact(tmp_path):
     rng = np.random.default_rng(2)
     lin = (rng.random((9, 13, 3)) * 20).astype(np.float32)  # HDR values survive

@@ -153,6 +153,11 @@ def _decode_srgb_ints(a: np.ndarray, bits: int) -> np.ndarray:
 # --------------------------------------------------------------------------------------------
 
 
+#: a pixel at or above this share of the white (1.0 in an 8/16-bit file or a RAW) was clipped
+#: by the camera (JPEG's error near the white included)
+CLIPPED_SHARE = 0.98
+
+
 @dataclass(frozen=True, eq=False)
 class Photo:
     """A decoded photo.
@@ -183,6 +188,15 @@ class Photo:
     height: int
     source_format: str
     bit_depth: int
+
+    @property
+    def clipped(self) -> list[float] | None:
+        """Per channel (R, G, B), the share of pixels at the camera's white (:data:`CLIPPED_SHARE`
+        of it or above): how bright they really were, the photo does not say. None for an EXR or
+        float TIFF, whose white is not known."""
+        if self.source_format == "exr" or self.bit_depth == 32:
+            return None
+        return [float(np.mean(self.rgb[..., ch] >= CLIPPED_SHARE)) for ch in range(3)]
 
 
 # --------------------------------------------------------------------------------------------

@@ -205,7 +205,7 @@ def capture_under_rig(photo_path: str | Path, options: CaptureOptions, *,
         except OSError:
             pass
         return _rejected(report, str(exc), "unreadable", timings, t0)
-    report["input"].update(sha256=photo.sha256, width=photo.width, height=photo.height,
+    report["input"].update(sha256=photo.sha256, width=photo.width, height=photo.height, clipped=photo.clipped and [round(v, 4) for v in photo.clipped],
                            format=photo.source_format)
     timings["load"] = time.perf_counter() - t
 
@@ -292,7 +292,7 @@ def capture_under_rig(photo_path: str | Path, options: CaptureOptions, *,
     timings["uncertainty"] = time.perf_counter() - t
     timings["total"] = time.perf_counter() - t0
 
-    faithful = fidelity(target, rendered, result.fabric.pattern)
+    faithful = fidelity(target, rendered, result.fabric.pattern, shot=(exposure or 1.0) * photo_canvas)
     report.update(status="ok", weave=weave_name(fabric.pattern))
     report["fit"] = {
         "psnr_db": round(psnr(rendered, target), 3), "iterations": result.iterations,

@@ -21,7 +21,7 @@ A photo compared with itself scores sharpness 1, ΔE 0 and correlation 1.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -38,12 +38,17 @@ class Fidelity:
     delta_e : {"warp": ΔE2000, "weft": ΔE2000}, NaN for a family the pattern never shows.
     structure : Pearson correlation of the luminances (-1..1).
     lab : {"warp": {"photo": L*a*b*, "render": L*a*b*}, "weft": ...}.
+    clipped : {"warp": share, "weft": share} of the photo's pixels at those cell centres that
+        the camera clipped (any channel), on one repeat as shot: how bright they were, the photo
+        does not say, so the family's colour there is a lower bound (the median repeat the other
+        figures are taken on smooths the clip away). NaN for a family the pattern never shows.
     """
 
     sharpness: float
     delta_e: dict
     structure: float
     lab: dict
+    clipped: dict = field(default_factory=dict)
 
     def to_json(self) -> dict:
         """report.json's ``fit.fidelity``."""
@@ -52,7 +57,8 @@ class Fidelity:
 
         return {"sharpness": num(self.sharpness), "delta_e": {k: num(v, 2) for k, v in self.delta_e.items()},
                 "structure": num(self.structure, 4),
-                "lab": {fam: {side: [num(x, 2) for x in lab] for side, lab in d.items()} for fam, d in self.lab.items()}}
+                "lab": {fam: {side: [num(x, 2) for x in lab] for side, lab in d.items()} for fam, d in self.lab.items()},
+                "clipped": {k: num(v, 4) for k, v in self.clipped.items()}}
 
     def caption(self) -> str:
         """One line for compare.png."""
@@ -113,7 +119,8 @@ def rendered_family_lab(fabric, *, rig: str = "both", cell_px: int = 24, spp: in
     return {family: mean_lab(image, mask) for family, mask in masks.items()}
 
 
-def fidelity(photo: np.ndarray, render: np.ndarray, pattern: np.ndarray, *, centre_share: float = 0.5) -> Fidelity:
+def fidelity(photo: np.ndarray, render: np.ndarray, pattern: np.ndarray, *, centre_share: float = 0.5,
+             shot: np.ndarray | None = None) -> Fidelity:
     """The fidelity figures of ``render`` against ``photo``.
 
     Parameters
@@ -122,8 +129,12 @@ def fidelity(photo: np.ndarray, render: np.ndarray, pattern: np.ndarray, *, cent
         its render as photographed: clipped at the photo's white level, blurred by its blur).
     pattern : (n_e, n_a) the fitted pattern, 1 = weft over warp: which family each cell shows.
     centre_share : the middle share of each cell side whose colour counts.
+    shot : one repeat of the photo as shot on the same canvas (default ``photo``), whose pixels
+        at the camera's white (:func:`weavecap.model.render.white_level`) count as clipped.
     """
     from skimage.color import deltaE_ciede2000
+
+    from ..photo import CLIPPED_SHARE
 
     photo = np.asarray(photo, np.float64)
     render = np.asarray(render, np.float64)
@@ -132,15 +143,20 @@ def fidelity(photo: np.ndarray, render: np.ndarray, pattern: np.ndarray, *, cent
     e_photo = gradient_energy(photo)
     sharp = gradient_energy(render) / e_photo if e_photo > 0 else float("nan")
     masks = family_masks(pattern, photo.shape[:2], centre_share=centre_share)
-    lab, de = {}, {}
+    from ..model.render import white_level
+
+    shot = photo if shot is None else np.asarray(shot, np.float64)
+    at_white = np.any(shot >= CLIPPED_SHARE * white_level(shot), axis=-1)
+    lab, de, clipped = {}, {}, {}
     for fam, mask in masks.items():
+        clipped[fam] = float(at_white[mask].mean()) if mask.any() else float("nan")
         a, b = mean_lab(photo, mask), mean_lab(render, mask)
         lab[fam] = {"photo": a, "render": b}
         de[fam] = float(deltaE_ciede2000(a, b)) if np.all(np.isfinite(a)) and np.all(np.isfinite(b)) else float("nan")
     ya, yb = luminance(photo).ravel(), luminance(render).ravel()
     sa, sb = ya.std(), yb.std()
     corr = float(np.mean((ya - ya.mean()) * (yb - yb.mean())) / (sa * sb)) if sa > 0 and sb > 0 else float("nan")
-    return Fidelity(sharpness=float(sharp), delta_e=de, structure=corr, lab=lab)
+    return Fidelity(sharpness=float(sharp), delta_e=de, structure=corr, lab=lab, clipped=clipped)
 
 
 #: what :func:`more_faithful` lets a capture give up for its colours: sharpness, as

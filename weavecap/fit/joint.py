@@ -35,15 +35,13 @@ from ..model.render import (as_photographed, blur, blurred_mse, gbuffer, mse_and
                             white_level)
 from ..model.scene import GEOMETRY_KEYS, FabricScene, LightRig, View, build_scene
 from ..params import CONTINUOUS_KEYS, FIT_RANGES, Fabric
+from ..photo import CLIPPED_SHARE
 from .config import FitConfig
 
 DISCRETE_STEPS = {"plies": (1, 1), "fibers": (1, 4)}  # smallest and largest |change| of a proposal
 BODY_COLOUR_KEYS = ("warp.body_reflection", "warp.body_subsurface", "weft.body_reflection", "weft.body_subsurface")
 #: the highlights' colours: a rise of the rig's gain must not brighten them
 SPECULAR_COLOUR_KEYS = ("specular.reflection", "specular.transmission", "specular.transmission_exit")
-#: target pixels at or above this share of the white level are clipped by the camera and say
-#: nothing about a colour that only brightens them: :func:`solve_colours` leaves them out
-CLIPPED_SHARE = 0.98
 #: the photo determines a channel of the rig's gain when its standard error is at most this share
 GAIN_DETERMINED = 0.05
 #: ... from at least this many pixels that are wholly gap in the render and unclipped in the photo
@@ -290,7 +288,7 @@ def solve_colours(fs: FabricScene, target: np.ndarray, measure: Callable[[], flo
         basis.append(shown() - dark)
         fs.set(k, (0.0, 0.0, 0.0))
     target = np.asarray(target, dtype=np.float64)
-    seen = target < CLIPPED_SHARE * white_level(target)
+    seen = target < CLIPPED_SHARE * white_level(target)  # clipped: no word on a colour that only brightens
     lo, hi = (np.array(bounds) for bounds in zip(*(FIT_RANGES[k] for k in keys)))
     systems = []  # per channel: (colour bases, colour-free part, target) where unclipped
     for ch in range(3):
