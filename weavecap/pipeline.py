@@ -116,7 +116,7 @@ class FitJob:
         return {"weave": record.get("weave"), "psnr_db": fit.get("psnr_db"),
                 "pattern_confidence": fit.get("pattern_confidence"), "yarns": record["grid"]["yarns"],
                 "light": fit.get("light", {}).get("rig"), "sharpness": fidelity.get("sharpness"),
-                "delta_e": fidelity.get("delta_e")}
+                "delta_e": fidelity.get("delta_e"), "clipped": fidelity.get("clipped")}
 
 
 def psnr(a: np.ndarray, b: np.ndarray) -> float:
