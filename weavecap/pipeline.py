@@ -205,8 +205,9 @@ def capture_under_rig(photo_path: str | Path, options: CaptureOptions, *,
         except OSError:
             pass
         return _rejected(report, str(exc), "unreadable", timings, t0)
-    report["input"].update(sha256=photo.sha256, width=photo.width, height=photo.height, clipped=photo.clipped and [round(v, 4) for v in photo.clipped],
-                           format=photo.source_format)
+    clipped = photo.clipped
+    report["input"].update(sha256=photo.sha256, width=photo.width, height=photo.height, format=photo.source_format,
+                           clipped=None if clipped is None else [round(v, 4) for v in clipped])
     timings["load"] = time.perf_counter() - t
 
     say("preparing (rectify, regularize, repeat, grid)")

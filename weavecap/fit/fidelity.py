@@ -134,6 +134,7 @@ def fidelity(photo: np.ndarray, render: np.ndarray, pattern: np.ndarray, *, cent
     """
     from skimage.color import deltaE_ciede2000
 
+    from ..model.render import white_level
     from ..photo import CLIPPED_SHARE
 
     photo = np.asarray(photo, np.float64)
@@ -143,8 +144,6 @@ def fidelity(photo: np.ndarray, render: np.ndarray, pattern: np.ndarray, *, cent
     e_photo = gradient_energy(photo)
     sharp = gradient_energy(render) / e_photo if e_photo > 0 else float("nan")
     masks = family_masks(pattern, photo.shape[:2], centre_share=centre_share)
-    from ..model.render import white_level
-
     shot = photo if shot is None else np.asarray(shot, np.float64)
     at_white = np.any(shot >= CLIPPED_SHARE * white_level(shot), axis=-1)
     lab, de, clipped = {}, {}, {}
