@@ -128,3 +128,19 @@ def test_turned_herringbone_keeps_its_repeat(name):
     assert sorted(r.grid.yarns) == [4, 15]
     fine, coarse = sorted(_input_pitch(r))
     assert 8.0 <= fine <= 8.8 and 8.7 <= coarse <= 9.5, (fine, coarse)
+
+
+def test_a_given_repeat_is_checked_against_the_repeat_the_photo_shows_not_its_widening():
+    """D16's cells repeat over 2 wefts, widened to the 2/2 twill base's 4 (a grey twill's
+    complement looks alike): a pattern given over 2 wefts is a multiple of what the photo shows
+    and is used; 3 wefts is no multiple of 2 and is refused."""
+    from weavecap.errors import ParamsError
+
+    rgb = load_photo(_easy("brodatz_D16_herringbone_000deg.tiff")).rgb
+    own = prepare_photo(rgb)
+    assert tuple(own.grid.yarns) == (4, 15) and own.checks["repeat_doubled"] == [True, False]
+    given = prepare_photo(rgb, repeat=(2, 15))
+    assert isinstance(given, Prepared) and tuple(given.grid.yarns) == (2, 15)
+    assert given.checks["repeat_in_photo"] == [2, 15]
+    with pytest.raises(ParamsError, match="the photo's repeat is 2 wefts x 15 warps, which does not divide it"):
+        prepare_photo(rgb, repeat=(3, 15))

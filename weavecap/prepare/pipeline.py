@@ -473,7 +473,8 @@ def prepare_photo(rgb: np.ndarray, config: PrepareConfig = PrepareConfig(), *, r
             reps.append((n, refine_repeat(dmfs[i], pitch, n)))
     shown = [f or n is not None for f, n in zip(found, lattice_n)]
     if repeat is not None:  # a repeat known from elsewhere: the regularized box must hold it once
-        seen = [n for n, _ in reps]
+        # what the photo shows: a 2-yarn repeat doubled as a grey 2/2 twill's is still 2
+        seen = [c if wide else n for (n, _), c, wide in zip(reps, cell_ns, checks["repeat_doubled"])]
         checks.update(repeat_in_photo=seen)
         if any(src in ("cells", "pixels") and n % m for n, m, src in zip(repeat, seen, sources)):
             # the photo repeats over m yarns (a DMF's dip): a repeat of the fabric is a multiple of it
