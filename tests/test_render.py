@@ -87,6 +87,28 @@ def test_a_geometry_set_back_to_what_is_built_keeps_the_scene_and_renders_alike(
     assert np.array_equal(render_numpy(fs, seed=1), before)
 
 
+def test_stepping_back_to_a_geometry_built_lately_reuses_it_with_the_values_set_since():
+    """A radius search tries r ± δ and steps back; a flip refused is flipped back. The scene
+    built for a geometry is reused (no BVH build, no geometry pass) among the last
+    GEOMETRIES_KEPT, and renders what a scene built afresh renders — with any value set since."""
+    from weavecap.model.scene import GEOMETRIES_KEPT
+
+    fabric = params.load(FIXTURES[0])
+    view = View(tiles=(1, 1), size=32, spp=2)
+    fs = build_scene(fabric, view)
+    first = fs.scene
+    fs.set("warp.radius", fabric.warp.radius + 0.5)
+    fs.set("warp.body_reflection", (0.9, 0.2, 0.1))  # replaced while the other geometry is built
+    fs.set("warp.radius", fabric.warp.radius)
+    assert fs.scene is first
+    np.testing.assert_array_equal(render_numpy(fs, seed=1), render_numpy(build_scene(fs.to_fabric(), view), seed=1))
+    for k in range(1, GEOMETRIES_KEPT + 1):  # as many new geometries as are kept: the first is let go
+        fs.set("weft.radius", fabric.weft.radius + 0.1 * k)
+    fs.set("weft.radius", fabric.weft.radius)
+    assert fs.scene is not first
+    np.testing.assert_array_equal(render_numpy(fs, seed=1), render_numpy(build_scene(fs.to_fabric(), view), seed=1))
+
+
 def test_quarter_turn_turns_the_picture():
     """--rotate 90 turns the fabric counter-clockwise in the image."""
     fabric = params.load([p for p in FIXTURES if p.stem == "twill_2_1"][0])
