@@ -63,6 +63,9 @@ def _camera_rays(fs: FabricScene, spp: int, seed: int):
             ox = _frac(ox + rng.next_float32())
             oy = _frac(oy + rng.next_float32())
     ext_w, ext_h = fs.frame.extent
+    # the heights move with every radius: read from memory, not compiled in, they leave one
+    # kernel for every geometry (a literal compiled a new one, ~80 ms, at each radius tried)
+    top = dr.opaque(mi.Float, fs.z_range[1] + 1.0)
     a = ((px + ox) / width - 0.5) * ext_w  # image coordinates, world units, y down
     b = ((py + oy) / height - 0.5) * ext_h
     theta = np.radians(fs.view.rotate_deg)
@@ -70,7 +73,6 @@ def _camera_rays(fs: FabricScene, spp: int, seed: int):
     cx, cy = fs.frame.center
     fx = cx + c * a - si_ * b  # the fabric point seen there (inverse of a CCW turn in the image)
     fy = cy + si_ * a + c * b
-    top = fs.z_range[1] + 1.0
     if fs.view.camera == "orthographic":
         origin = mi.Point3f(fx, fy, top)
         direction = mi.Vector3f(0.0, 0.0, -1.0)
@@ -143,7 +145,7 @@ def geometry_pass(fs: FabricScene, *, spp: int, seed: int) -> GBuffer:
                 visible = same_side & ~front_blocked
             wl.append(si.to_local(d))
             lit.append(hit & visible)
-        ao = ambient_occlusion(si.p.z, fs.z_range)
+        ao = ambient_occlusion(si.p.z, tuple(dr.opaque(mi.Float, z) for z in fs.z_range))  # as ``top``
         fabric_uv = None
         if fs.textures:
             n_e, n_a = fs.fabric.shape
