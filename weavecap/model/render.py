@@ -197,8 +197,8 @@ def shade(fs: FabricScene, g: GBuffer):
 
 
 def gbuffer(fs: FabricScene, *, spp: int, seed: int) -> GBuffer:
-    """The scene's G-buffer for ``spp`` and ``seed``, cached on the scene until its geometry
-    changes (:meth:`FabricScene.set` of a radius clears the cache)."""
+    """The scene's G-buffer for ``spp`` and ``seed``, cached with its geometry (a radius or
+    pattern set by :meth:`FabricScene.set` switches to that geometry's cache)."""
     key = (spp, seed)
     if key not in fs.cache:
         fs.cache.clear()

@@ -338,7 +338,7 @@ def _build(fs: FabricScene) -> None:
     warp_mesh = yarn_mesh("warps", warps, plugins[1])
     fs.scene = mi.load_dict({"type": "scene", "wefts": weft_mesh, "warps": warp_mesh})
     fs.warp_shape = mi.ShapePtr(warp_mesh)
-    dr.make_opaque(fs.warp_shape)
+    dr.make_opaque(fs.warp_shape)  # read from memory, as the heights are: no kernel per scene built
     fs.z_range = height_range(fabric)
     fs.cache = {}
 
