@@ -249,8 +249,7 @@ class FabricScene:
             else mi.Float(float(value))
         dr.make_opaque(new)
         self.values[key] = new
-        for shape, yarn in zip(self.scene.shapes(), ("weft", "warp")):
-            _bind(shape.bsdf(), self.values, yarn)
+        _bind_shapes(self)
 
     def to_fabric(self) -> Fabric:
         """The fabric with the store's current values (plies and fibres rounded to integers)."""
@@ -294,6 +293,12 @@ def _bind(plugin, values: dict, yarn: str) -> None:
             plugin.values[key] = values[f"{yarn}.{key}"]
 
 
+def _bind_shapes(fs: FabricScene) -> None:
+    """Point the scene's two yarn meshes' BYSDFs (wefts, then warps) at the store's values."""
+    for shape, yarn in zip(fs.scene.shapes(), ("weft", "warp")):
+        _bind(shape.bsdf(), fs.values, yarn)
+
+
 def height_range(fabric: Fabric) -> tuple[float, float]:
     """(lowest, highest) z a yarn surface of ``fabric`` can reach, world units."""
     top = crossover_height(fabric.warp.radius, fabric.weft.radius) / 2 + max(fabric.warp.radius, fabric.weft.radius)
@@ -316,8 +321,7 @@ def _rebuild(fs: FabricScene) -> None:
     if key in fs.built:
         fs.built[key] = fs.built.pop(key)  # the most recently used last
         fs.scene, fs.warp_shape, fs.z_range, fs.cache = fs.built[key]
-        for shape, yarn in zip(fs.scene.shapes(), ("weft", "warp")):
-            _bind(shape.bsdf(), fs.values, yarn)  # the store's values may have been replaced since
+        _bind_shapes(fs)  # the store's values may have been replaced since
         return
     _build(fs)
     fs.built[key] = (fs.scene, fs.warp_shape, fs.z_range, fs.cache)
