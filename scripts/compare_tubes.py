@@ -46,7 +46,7 @@ def main() -> int:
     from weavecap import params
     from weavecap.model import scene
     from weavecap.model.render import render_numpy
-    from weavecap.pipeline import psnr
+    from weavecap.report import psnr
 
     now, before = scene.fabric_meshes, old_geometry(a.before).fabric_meshes
     print(f"PSNR (dB) of renders with the tubes of {a.before} against now; {a.size} px, 2x2 repeats, 4 spp")

@@ -14,7 +14,7 @@ from registered_fits import registered_fit as _registered_fit
 from weavecap import params
 from weavecap.estimate.cells import CellGrid
 from weavecap.estimate.forward import RepeatRenderer
-from weavecap.fit.config import PRESETS
+from weavecap.fit.config import PRESETS, FitRequest
 from weavecap.fit.target import correlation_shift, lattice_drift, mean_repeat, register_cells
 from weavecap.model.render import as_photographed, blurred_mse, mse_and_gradients, white_level
 from weavecap.model.scene import View, build_scene
@@ -182,7 +182,6 @@ def test_rounds_go_on_while_they_still_lower_the_loss(monkeypatch, extra, calls)
     loss by more than 5%: losses 1, .5, .4, then .3 (−25%: go on) and .29 (−3%: stop)."""
     from types import SimpleNamespace
 
-    from weavecap import pipeline
     from weavecap.fit import rounds
     from weavecap.fit.joint import FitResult
 
@@ -207,7 +206,7 @@ def test_rounds_go_on_while_they_still_lower_the_loss(monkeypatch, extra, calls)
     prepared = SimpleNamespace(regularized=SimpleNamespace(box=(0.0, 0.0, 10.0, 10.0)))
     cells = CellGrid(rows=np.arange(3.0), cols=np.arange(3.0))
     fabric = params.load(FIXTURES / "plain.json")
-    out = rounds.fit_registered(prepared, cells, fabric, pipeline.CaptureOptions(), c=8, fixed=frozenset(),
+    out = rounds.fit_registered(prepared, cells, fabric, FitRequest(), c=8, fixed=frozenset(),
                                   explore_patterns=False)
     assert len(made) == calls and out.result.loss == min(made)
 
@@ -218,7 +217,6 @@ def test_the_rounds_run_both_ways_of_reading_the_drift_and_keep_the_lower(monkey
     the rounds; the lower loss is kept and the report says which."""
     from types import SimpleNamespace
 
-    from weavecap import pipeline
     from weavecap.fit import rounds
     from weavecap.fit.joint import FitResult
 
@@ -235,7 +233,7 @@ def test_the_rounds_run_both_ways_of_reading_the_drift_and_keep_the_lower(monkey
     monkeypatch.setitem(PRESETS, "normal", PRESETS["normal"].with_(registration_rounds=3, extra_rounds=0))
     prepared = SimpleNamespace(regularized=SimpleNamespace(box=(0.0, 0.0, 10.0, 10.0)))
     cells = CellGrid(rows=np.arange(3.0), cols=np.arange(3.0))
-    out = rounds.fit_registered(prepared, cells, params.load(FIXTURES / "plain.json"), pipeline.CaptureOptions(),
+    out = rounds.fit_registered(prepared, cells, params.load(FIXTURES / "plain.json"), FitRequest(),
                                 c=8, fixed=frozenset(), explore_patterns=False)
     assert made == [False, False, False, True, True]
     assert out.held and out.result.loss == 0.25 / 5 and out.notes["phase_held"]["taken"]
@@ -250,7 +248,6 @@ def test_two_ways_that_end_on_different_patterns_within_the_noise_go_to_the_vote
     pattern by more than the margin keeps it; backing it by less leaves the lower loss."""
     from types import SimpleNamespace
 
-    from weavecap import pipeline
     from weavecap.fit import rounds
     from weavecap.fit.joint import FitResult
 
@@ -271,7 +268,7 @@ def test_two_ways_that_end_on_different_patterns_within_the_noise_go_to_the_vote
     prepared = SimpleNamespace(regularized=SimpleNamespace(box=(0.0, 0.0, 10.0, 10.0)))
     cells = CellGrid(rows=np.arange(5.0), cols=np.arange(5.0))
     start = params.load(FIXTURES / "twill_3_1.json")
-    out = rounds.fit_registered(prepared, cells, start, pipeline.CaptureOptions(), c=8, fixed=frozenset(),
+    out = rounds.fit_registered(prepared, cells, start, FitRequest(), c=8, fixed=frozenset(),
                                 explore_patterns=True)
     held = out.notes["phase_held"]
     assert held["taken"] == (kept == "held") and held["votes_agree"] == {"held": 0.6, "followed": agree_followed}
@@ -284,7 +281,6 @@ def test_no_round_begins_once_the_budget_is_spent(monkeypatch):
     although every round still lowers the loss by half."""
     from types import SimpleNamespace
 
-    from weavecap import pipeline
     from weavecap.fit import rounds
     from weavecap.fit.joint import FitResult
 
@@ -302,7 +298,7 @@ def test_no_round_begins_once_the_budget_is_spent(monkeypatch):
     monkeypatch.setattr(rounds, "_fit_round", fake_round)
     prepared = SimpleNamespace(regularized=SimpleNamespace(box=(0.0, 0.0, 10.0, 10.0)))
     cells = CellGrid(rows=np.arange(3.0), cols=np.arange(3.0))
-    options = pipeline.CaptureOptions(budget_s=25.0)
+    options = FitRequest(budget_s=25.0)
     rounds.fit_registered(prepared, cells, params.load(FIXTURES / "plain.json"), options, c=8, fixed=frozenset(),
                             explore_patterns=False)
     assert len(made) == 3 and all(b is not None and b <= 25.0 for b in made)
@@ -314,7 +310,6 @@ def test_the_end_stage_fits_the_best_named_weave_even_when_it_looked_worse_unfit
     twill is fitted and kept."""
     from types import SimpleNamespace
 
-    from weavecap import pipeline
     from weavecap.fit import rounds
     from weavecap.estimate.sampling import twill
     from weavecap.fit.joint import FitResult
@@ -339,7 +334,7 @@ def test_the_end_stage_fits_the_best_named_weave_even_when_it_looked_worse_unfit
     start = params.load(FIXTURES / "plain.json").replace({"pattern": custom})
     prepared = SimpleNamespace(regularized=SimpleNamespace(box=(0.0, 0.0, 10.0, 10.0)))
     cells = CellGrid(rows=np.arange(5.0), cols=np.arange(5.0))
-    out = rounds.fit_registered(prepared, cells, start, pipeline.CaptureOptions(), c=8, fixed=frozenset(),
+    out = rounds.fit_registered(prepared, cells, start, FitRequest(), c=8, fixed=frozenset(),
                                   explore_patterns=True)
     assert asked[-1] == np.inf
     assert np.array_equal(out.result.fabric.pattern, named) and out.notes["named_weave"]["taken"]
@@ -354,7 +349,6 @@ def test_the_votes_only_break_near_ties_at_the_end_stage(monkeypatch, named_loss
     4×4: a twill 2/2 1.3% lower) the votes decide."""
     from types import SimpleNamespace
 
-    from weavecap import pipeline
     from weavecap.fit import rounds
     from weavecap.estimate.sampling import twill
     from weavecap.fit.joint import FitResult
@@ -376,7 +370,7 @@ def test_the_votes_only_break_near_ties_at_the_end_stage(monkeypatch, named_loss
     start = params.load(FIXTURES / "plain.json").replace({"pattern": custom})
     prepared = SimpleNamespace(regularized=SimpleNamespace(box=(0.0, 0.0, 10.0, 10.0)))
     cells = CellGrid(rows=np.arange(5.0), cols=np.arange(5.0))
-    out = rounds.fit_registered(prepared, cells, start, pipeline.CaptureOptions(), c=8, fixed=frozenset(),
+    out = rounds.fit_registered(prepared, cells, start, FitRequest(), c=8, fixed=frozenset(),
                                   explore_patterns=True)
     assert out.notes["named_weave"]["taken"] is taken
     assert np.array_equal(out.result.fabric.pattern, named if taken else custom)
@@ -391,7 +385,6 @@ def _drifting_end_stage(monkeypatch, *, custom_loss: float, began_loss: float, b
     Returns (the RegisteredFit, the twill)."""
     from types import SimpleNamespace
 
-    from weavecap import pipeline
     from weavecap.estimate.sampling import twill
     from weavecap.estimate.weave_name import weave_name
     from weavecap.fit import rounds
@@ -421,7 +414,7 @@ def _drifting_end_stage(monkeypatch, *, custom_loss: float, began_loss: float, b
     start = params.load(FIXTURES / "plain.json").replace({"pattern": custom})
     prepared = SimpleNamespace(regularized=SimpleNamespace(box=(0.0, 0.0, 10.0, 10.0)))
     cells = CellGrid(rows=np.arange(5.0), cols=np.arange(5.0))
-    return rounds.fit_registered(prepared, cells, start, pipeline.CaptureOptions(), c=8, fixed=frozenset(),
+    return rounds.fit_registered(prepared, cells, start, FitRequest(), c=8, fixed=frozenset(),
                                  explore_patterns=True), began
 
 
@@ -652,7 +645,6 @@ def test_votes_settle_tied_starts_only_when_they_back_one(monkeypatch, losses, a
     2/2 Z: agreement 1.0 against 0.79)."""
     from types import SimpleNamespace
 
-    from weavecap import pipeline
     from weavecap.fit import rounds
     from weavecap.fit.joint import FitResult
 
@@ -672,7 +664,7 @@ def test_votes_settle_tied_starts_only_when_they_back_one(monkeypatch, losses, a
                         lambda self: agree[0] if np.array_equal(self.result.fabric.pattern, own) else agree[1])
     prepared = SimpleNamespace(regularized=SimpleNamespace(box=(0.0, 0.0, 10.0, 10.0)))
     cells = CellGrid(rows=np.arange(3.0), cols=np.arange(3.0))
-    out = rounds.fit_registered(prepared, cells, start, pipeline.CaptureOptions(), c=8, fixed=frozenset(),
+    out = rounds.fit_registered(prepared, cells, start, FitRequest(), c=8, fixed=frozenset(),
                                   explore_patterns=True)
     assert out.notes["start"]["within_noise"] and out.notes["start"]["chosen"] == chosen
 

@@ -299,7 +299,7 @@ def summary(results: list[dict]) -> list[dict]:
 
 def independent_table(rows: list[dict]) -> str:
     """The independent set's table (markdown): pattern, fidelity and time per preset, and how
-    many photos were captured under more than one rig (:func:`weavecap.pipeline.rig_search`)."""
+    many photos were captured under more than one rig (:func:`weavecap.fit.rigs.search`)."""
     out = ["| preset | photos fitted | median s | max s | pattern exact | median PSNR | sharpness median | "
            "sharpness worst | ΔE2000 median | ΔE2000 worst | structure median | rigs searched |", "|" + "---|" * 12]
     for r in rows:

@@ -113,14 +113,14 @@ class FitConfig:
         CIEDE2000 (under it the fabric shows one colour and no phase is told apart by it)
     rig_retry : under ``--light auto``, a capture whose render is not faithful to the photo
         (below ``faithful_sharpness`` or a family beyond ``faithful_delta_e``) is captured again
-        under the other rigs of :data:`weavecap.pipeline.BEST_RIGS`, one of them kept
-        (:func:`weavecap.pipeline.rig_search`); off at draft, which is for a quick look
+        under the other rigs of :data:`weavecap.fit.rigs.BEST_RIGS`, one of them kept
+        (:func:`weavecap.fit.rigs.search`); off at draft, which is for a quick look
     faithful_sharpness : a capture is faithful when its render has at least this share of the
         photo's gradient energy (issue 11's bound on real photos) ...
     faithful_delta_e : ... and each yarn family's colour is within this CIEDE2000 of the
         photo's (:func:`weavecap.fit.fidelity.fidelity`)
     rig_loss_slack : a rig search weighs ``auto``'s capture and those whose loss is at most
-        this many times the lowest (:func:`weavecap.pipeline.kept_capture`)
+        this many times the lowest (:func:`weavecap.fit.rigs.kept_capture`)
     """
 
     iterations: int = 120
@@ -174,6 +174,30 @@ PRESETS: dict[str, FitConfig] = {
     "normal": FitConfig(),
     "high": FitConfig(iterations=300, spp=8, converge_window=40, converge_tol=5e-4, extra_rounds=1),
 }
+
+
+@dataclass(frozen=True)
+class FitRequest:
+    """What a caller asks of the fit of one photo (:func:`weavecap.fit.rounds.fit_registered`,
+    :func:`weavecap.fit.rigs.search`), apart from the runner's own options.
+
+    Attributes
+    ----------
+    quality : preset name of :data:`PRESETS`
+    light : the light rig (§6.4): a rig's name, ``auto`` (chosen before the fit, searched
+        further when that capture is not faithful) or ``best`` (every rig searched)
+    seed : seeds every random choice; the same seed gives the same result
+    budget_s : wall-time limit of the joint fit, seconds (None: the preset's iterations)
+    """
+
+    quality: str = "normal"
+    light: str = "auto"
+    seed: int = 0
+    budget_s: float | None = None
+
+    @property
+    def config(self) -> FitConfig:
+        return PRESETS[self.quality]
 
 
 def cell_px_for(config: FitConfig, shape: tuple[int, int]) -> int:

@@ -88,7 +88,7 @@ def plan(start: Fabric, *, cell_px: int, fixed: frozenset = frozenset(), unseen:
     cell_px : canvas px per cell of the fit.
     fixed : what the user fixed already (``pattern`` for a given pattern).
     unseen : continuous keys → standard error (inf) at the start, of values no render sees
-        (:func:`weavecap.fit.uncertainty.standard_errors` with the other decisions' ``fixed``).
+        (:func:`weavecap.fit.uncertainty.unseen` with the other decisions' ``fixed``).
     reasons : the reasons of an earlier plan whose ``fixed`` is passed in (kept).
     """
     reasons = dict(reasons or {})
@@ -108,6 +108,17 @@ def plan(start: Fabric, *, cell_px: int, fixed: frozenset = frozenset(), unseen:
             fixed.add(key)
             reasons[key] = "held at the start's value: it moves along a direction no render of this photo sees"
     return Plan(start=start, fixed=frozenset(fixed), reasons=reasons)
+
+
+def photo_plan(start: Fabric, *, rig, cell_px: int, side_px: int, spp: int, fixed: frozenset = frozenset()) -> Plan:
+    """:func:`plan` for one photo: the decisions above, then every value no render of the
+    photo's repeat (``side_px`` on its longer side, under ``rig``) sees at the planned start
+    held too (:func:`weavecap.fit.uncertainty.unseen`)."""
+    from .uncertainty import unseen
+
+    first = plan(start, cell_px=cell_px, fixed=fixed)
+    hidden = unseen(first.start, size=side_px, light=rig, spp=spp, fixed=first.fixed)
+    return plan(first.start, cell_px=cell_px, fixed=first.fixed, unseen=hidden, reasons=first.reasons)
 
 
 def light_json(rig, moves: dict, *, exposure: float | None = None) -> dict:

@@ -17,17 +17,12 @@ import dataclasses
 import math
 import time
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
-
 import numpy as np
 
 from .. import params as wparams
 from ..model.scene import GEOMETRY_KEYS, LightRig
-from .config import FitConfig
+from .config import FitConfig, FitRequest
 from .target import dual, mean_repeat, photo_blur, register_cells, shifted
-
-if TYPE_CHECKING:
-    from ..pipeline import CaptureOptions
 
 #: registration rounds the pattern decoded from the photo's edges is fitted in (:func:`edge_check`):
 #: started from a fit of another pattern, one round left the independent twill 1/3 S's render
@@ -448,44 +443,7 @@ def colour_check(best: RegisteredFit, config: FitConfig, *, fixed: frozenset[str
     return dataclasses.replace(best, result=result)
 
 
-def choose_rig(prepared, cells, fabric: wparams.Fabric, *, c: int, spp: int,
-               names: tuple[str, ...] = ("both", "front")) -> tuple[str, dict]:
-    """The light rig (§6.4) that explains the photo best for ``--light auto``: ``fabric`` under
-    each of ``names``, the photo's median repeat registered on its render, its colours and the
-    rig's gain solved in closed form (:func:`weavecap.fit.joint.solve_colours`), and the rig
-    with the lower loss wins. A back-lit photo's gaps glow and its yarns let the light through;
-    a front-lit one has neither, and a rig with a back light then explains it worse (and the
-    other way round). Returns the name and each rig's loss.
-
-    ``lamp`` (one lamp in front, no side lights) is not among the names, nor weighed later:
-    the loss does not see what it mends. Scored on the pre-estimate, it came out below ``both``
-    on the three own renders tried, which ``both`` had made (fitted under it, the plain lost
-    1.3 dB and the twill 2.6, the satin 5 gained 1.5); scored on the first round's fit of seven
-    photos, it came out below only on the independent satin 8, and a round fitted under it
-    there ended 21% above (docs/capture.md, Session 16). A rig search weighs it after whole
-    captures (:func:`weavecap.pipeline.rig_search`)."""
-    from ..estimate.forward import BLUR_CELLS, RepeatRenderer
-    from ..model.render import blurred_mse, render_numpy, white_level
-    from ..model.scene import View, build_scene, light_rig
-    from .joint import solve_colours
-
-    losses = {}
-    for name in names:
-        rig = light_rig(name)
-        model = RepeatRenderer(fabric, cell_px=c, light=rig, blur_cells=BLUR_CELLS,
-                               white=white_level(prepared.rectification.image)).render()
-        _, _, target = _registered_target(prepared, cells, model, c)
-        fs = build_scene(fabric, View(tiles=(1, 1), size=max(target.shape[:2]), spp=spp), light=rig)
-
-        def measure() -> float:
-            return blurred_mse(render_numpy(fs), target, BLUR_CELLS * c)
-
-        solve_colours(fs, target, measure, spp=spp, blur_px=BLUR_CELLS * c, gain=True)
-        losses[name] = measure()
-    return min(losses, key=losses.get), {k: round(v, 6) for k, v in losses.items()}
-
-
-def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptions, *, c: int,
+def fit_registered(prepared, cells, start: wparams.Fabric, request: FitRequest, *, c: int,
                    fixed: frozenset[str], explore_patterns: bool, rig: LightRig | None = None) -> RegisteredFit:
     """The joint fit (§6), alternating with the registration of the photo's cells.
 
@@ -527,14 +485,14 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
     (:func:`colour_check`; each round's match is kept for the loss alone). Returns the best
     round, with ``cells`` in the rectified photo's pixels.
 
-    ``rig`` is the light rig to start from (default: ``options.light``'s, at unit gain); the
+    ``rig`` is the light rig to start from (default: ``request.light``'s, at unit gain); the
     gain it carries (the photo's exposure and white balance) is fitted along (unless
     ``"light.gain"`` is in ``fixed``), and each round starts from the last one's.
     """
     from ..model.scene import light_rig
 
-    rig = rig or light_rig("both" if options.light == "auto" else options.light)
-    config = options.config
+    rig = rig or light_rig("both" if request.light == "auto" else request.light)
+    config = request.config
     rounds = max(1, config.registration_rounds)
     per_round = config.with_(iterations=max(1, config.iterations // rounds))
     t0 = time.perf_counter()
@@ -555,18 +513,18 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
     runs = 2 * rounds - 1 + len(starts)  # the rounds both ways, and one more for a named weave
 
     def budget(done: int) -> float | None:
-        if options.budget_s is None:
+        if request.budget_s is None:
             return None
-        return max(0.0, options.budget_s - (time.perf_counter() - t0)) / max(1, runs - done)
+        return max(0.0, request.budget_s - (time.perf_counter() - t0)) / max(1, runs - done)
 
     def spent() -> bool:  # with --budget, no further start or round begins once it is used up
-        return options.budget_s is not None and time.perf_counter() - t0 >= options.budget_s
+        return request.budget_s is not None and time.perf_counter() - t0 >= request.budget_s
 
     firsts: dict[str, RegisteredFit] = {}
     for k, (name, fabric) in enumerate(starts.items()):
         if firsts and spent():
             break
-        firsts[name] = _fit_round(prepared, cells, fabric, rig, per_round, c=c, fixed=fixed, seed=options.seed,
+        firsts[name] = _fit_round(prepared, cells, fabric, rig, per_round, c=c, fixed=fixed, seed=request.seed,
                                   budget_s=budget(k))
     chosen = min(firsts, key=lambda name: firsts[name].result.loss)
     tied, agree = [], {}
@@ -592,7 +550,7 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
             if spent():
                 break
             last = _fit_round(prepared, best.cells, best.result.fabric, best.rig, per_round, c=c, fixed=fixed,
-                              seed=options.seed + k, budget_s=budget(done), held=held)
+                              seed=request.seed + k, budget_s=budget(done), held=held)
             done += 1
             shifts.append(last.notes["cell_shift"])
             steps += last.result.history
@@ -638,7 +596,7 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
             if tried and spent():
                 break
             tried.append(_fit_round(prepared, best.cells, best.result.fabric.replace({"pattern": named}), best.rig,
-                                    per_round, c=c, fixed=fixed | {"pattern"}, seed=options.seed + k,
+                                    per_round, c=c, fixed=fixed | {"pattern"}, seed=request.seed + k,
                                     budget_s=budget(runs - 1), held=best.held))
             history += tried[-1].result.history
         if tried:
@@ -670,7 +628,7 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
                                 ("phase", phase_check, 2)):
         if spent() or (stage in (edge_check, context_check) and not (explore_patterns and best.target is not None)):
             continue
-        best, note = stage(prepared, best, per_round, c=c, fixed=fixed, seed=options.seed + k + offset,
+        best, note = stage(prepared, best, per_round, c=c, fixed=fixed, seed=request.seed + k + offset,
                            budget_s=budget(runs - 1))
         if note is not None:
             notes[name] = note

@@ -66,7 +66,8 @@ def correlation_area(residual: np.ndarray, radius: int) -> float:
 
 
 def standard_errors(fabric: Fabric, target: np.ndarray, *, blur_px: float, light: str = "both",
-                    spp: int = 4, fixed: frozenset = frozenset()) -> dict[str, float]:
+                    spp: int = 4, fixed: frozenset = frozenset(), scene=None,
+                    rendered: np.ndarray | None = None) -> dict[str, float]:
     """Standard error of every continuous parameter of ``fabric`` fitted to ``target``.
 
     Parameters
@@ -75,6 +76,9 @@ def standard_errors(fabric: Fabric, target: np.ndarray, *, blur_px: float, light
     blur_px : σ of the blur the renders are compared with (canvas px); light : the rig; spp :
         samples per pixel (the fit's)
     fixed : keys the fit holds fixed: they are no unknowns here (and get no error)
+    scene, rendered : the caller's scene of ``fabric`` (one repeat at the target's size, under
+        ``light``, at ``spp``) and its render as photographed, when it has them: the render is
+        not made again (the scene is left as it was given)
 
     Returns
     -------
@@ -84,13 +88,50 @@ def standard_errors(fabric: Fabric, target: np.ndarray, *, blur_px: float, light
     """
     target = np.asarray(target, dtype=np.float64)
     h, w = target.shape[:2]
-    fs = build_scene(fabric, View(tiles=(1, 1), size=max(h, w), spp=spp), light=light)
+    fs = scene if scene is not None else build_scene(fabric, View(tiles=(1, 1), size=max(h, w), spp=spp), light=light)
     white = white_level(target)
 
     def shown() -> np.ndarray:
         return as_photographed(render_numpy(fs, spp=spp), blur_px, white).astype(np.float64)
 
-    base = shown()
+    base = shown() if rendered is None else np.asarray(rendered, dtype=np.float64)
+    jac, owners = _jacobian(fs, fabric, shown, base, fixed)
+    residual = base - target
+    c = h // fabric.shape[0]
+    noise = float(np.mean(residual ** 2)) * correlation_area(residual, max(1, c // 2))
+    # (JᵀJ)⁻¹ by its eigenvectors; a direction the photo does not see (eigenvalue below
+    # NULL_FLOOR of the largest) is left out, as a pseudo-inverse would, but the values that
+    # move along it (a loading of at least NULL_LOADING) are marked as not seen at all
+    eigval, eigvec, null = _eigen(jac)
+    variance = noise * (eigvec[:, ~null] ** 2 @ (1.0 / eigval[~null]))
+    variance[_moves_unseen(eigvec, null)] = np.inf
+    out: dict[str, float] = {}
+    for key, var in zip(owners, variance):
+        out[key] = max(out.get(key, 0.0), float(np.sqrt(max(var, 0.0))))
+    return out
+
+
+def unseen(fabric: Fabric, *, size: int, light="both", spp: int = 4, fixed: frozenset = frozenset()) -> dict[str, float]:
+    """The continuous values of ``fabric`` that move along a direction no render of its repeat
+    sees (one repeat, ``size`` px on its longer side, under ``light``): key → ``inf``, the error
+    :func:`standard_errors` gives them against any photo. Only the render's Jacobian decides it:
+    one render per scalar value and one of ``fabric``."""
+    fs = build_scene(fabric, View(tiles=(1, 1), size=size, spp=spp), light=light)
+    image = render_numpy(fs, spp=spp)
+    white = white_level(image)
+
+    def shown() -> np.ndarray:
+        return as_photographed(render_numpy(fs, spp=spp), 0.0, white).astype(np.float64)
+
+    jac, owners = _jacobian(fs, fabric, shown, as_photographed(image, 0.0, white).astype(np.float64), fixed)
+    eigval, eigvec, null = _eigen(jac)
+    return {key: np.inf for key, moves in zip(owners, _moves_unseen(eigvec, null)) if moves}
+
+
+def _jacobian(fs, fabric: Fabric, shown, base: np.ndarray, fixed: frozenset) -> tuple[np.ndarray, list[str]]:
+    """(values × parameters) forward differences of :data:`STEP` of each free continuous value's
+    range (a colour per channel) of ``shown()`` (the scene's render as compared) from ``base``,
+    and the key of each column. Every value is set back afterwards."""
     columns, owners = [], []
     for key in CONTINUOUS_KEYS:
         if key in fs.textures or key in fixed:
@@ -106,18 +147,17 @@ def standard_errors(fabric: Fabric, target: np.ndarray, *, blur_px: float, light
             columns.append(((shown() - base) / step).ravel())
             owners.append(key)
         fs.set(key, tuple(value) if value.size == 3 else float(value[0]))
-    jac = np.stack(columns, axis=1)
-    residual = base - target
-    c = h // fabric.shape[0]
-    noise = float(np.mean(residual ** 2)) * correlation_area(residual, max(1, c // 2))
-    # (JᵀJ)⁻¹ by its eigenvectors; a direction the photo does not see (eigenvalue below
-    # NULL_FLOOR of the largest) is left out, as a pseudo-inverse would, but the values that
-    # move along it (a loading of at least NULL_LOADING) are marked as not seen at all
+    return np.stack(columns, axis=1), owners
+
+
+def _eigen(jac: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """JᵀJ's eigenvalues and eigenvectors, and which directions are unseen (an eigenvalue below
+    :data:`NULL_FLOOR` of the largest)."""
     eigval, eigvec = np.linalg.eigh(jac.T @ jac)
-    null = eigval < NULL_FLOOR * max(float(eigval[-1]), 1e-30)
-    variance = noise * (eigvec[:, ~null] ** 2 @ (1.0 / eigval[~null]))
-    variance[(eigvec[:, null] ** 2).sum(axis=1) >= NULL_LOADING] = np.inf
-    out: dict[str, float] = {}
-    for key, var in zip(owners, variance):
-        out[key] = max(out.get(key, 0.0), float(np.sqrt(max(var, 0.0))))
-    return out
+    return eigval, eigvec, eigval < NULL_FLOOR * max(float(eigval[-1]), 1e-30)
+
+
+def _moves_unseen(eigvec: np.ndarray, null: np.ndarray) -> np.ndarray:
+    """Per column, whether its value moves along an unseen direction (a squared loading of at
+    least :data:`NULL_LOADING`)."""
+    return (eigvec[:, null] ** 2).sum(axis=1) >= NULL_LOADING
