@@ -23,8 +23,9 @@ assert "site-packages" in here.parts, f"weavecap imported from {here}, not the i
 for name in ("weavecap.cli.main", "weavecap.fit.joint", "weavecap.estimate.initializer", "weavecap.fixtures",
              "weavecap.render.run", "weavecap.cli.render"):
     assert importlib.util.find_spec(name) is not None, f"the wheel lacks {name}"
-from weavecap import bench, fixtures
-assert bench.FIXTURE.is_file(), f"bench fixture missing: {bench.FIXTURE}"
+from weavecap import fixtures
+from weavecap.bench import model as bench_model
+assert bench_model.FIXTURE.is_file(), f"bench fixture missing: {bench_model.FIXTURE}"
 assert fixtures.path("photos", "twill_3_1.png").is_file()
 assert fixtures.path("meshes", "skirt.obj").is_file(), "the wheel lacks the fixture meshes"
 from weavecap.render.fold.blidf import weights_path
