@@ -15,7 +15,6 @@ from weavecap.cli.main import cli
 
 ROOT = Path(__file__).resolve().parents[1]
 PHOTOS = ROOT / "fixtures" / "photos"
-CONTRACTS = ROOT.parent / "shared" / "contracts"
 SCHEMAS = ROOT / "weavecap" / "schemas"
 
 
@@ -56,19 +55,25 @@ def test_batch_with_a_corrupt_photo_gives_two_results_three_lines_and_exit_3(bat
     assert "a_twill.png: twill" in result.output and "sharpness" in result.output and " light, " in result.output
 
 
-def test_reports_and_params_follow_the_contracts(batch):
-    _, out, _ = batch
-    for schema_dir in (SCHEMAS, CONTRACTS):
-        if not schema_dir.is_dir():
-            continue
-        report_schema = json.loads((schema_dir / "report.schema.json").read_text())
-        params_schema = json.loads((schema_dir / "params.schema.json").read_text())
-        for name in ("a_twill", "c_plain"):
-            report = json.loads((out / name / "report.json").read_text())
-            jsonschema.validate(report, report_schema)
-            jsonschema.validate(json.loads((out / name / "params.json").read_text()), params_schema)
-            assert report["status"] == "ok" and report["timings_s"]["total"] > 0
-        assert json.loads((out / "b_corrupt" / "report.json").read_text())["status"] == "rejected"
+def _follow(out: Path, schemas: Path) -> None:
+    report_schema = json.loads((schemas / "report.schema.json").read_text())
+    params_schema = json.loads((schemas / "params.schema.json").read_text())
+    for name in ("a_twill", "c_plain"):
+        report = json.loads((out / name / "report.json").read_text())
+        jsonschema.validate(report, report_schema)
+        jsonschema.validate(json.loads((out / name / "params.json").read_text()), params_schema)
+        assert report["status"] == "ok" and report["timings_s"]["total"] > 0
+    rejected = json.loads((out / "b_corrupt" / "report.json").read_text())
+    jsonschema.validate(rejected, report_schema)
+    assert rejected["status"] == "rejected"
+
+
+def test_reports_and_params_follow_the_schemas(batch):
+    _follow(batch[1], SCHEMAS)
+
+
+def test_reports_and_params_follow_the_shared_contracts(batch, shared):
+    _follow(batch[1], shared("contracts"))
 
 
 def test_the_fit_finds_the_plain_weave(batch):

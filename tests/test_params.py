@@ -18,7 +18,6 @@ from weavecap.errors import InputError, ParamsError
 
 FIXTURE_PARAMS = Path(__file__).resolve().parents[1] / "fixtures" / "params"
 FIXTURES = sorted(FIXTURE_PARAMS.glob("*.json"))
-CONTRACT = Path(__file__).resolve().parents[2] / "shared" / "contracts" / "params.schema.json"
 
 
 def plain() -> params.Fabric:
@@ -52,21 +51,20 @@ def test_saved_file_has_ordinary_permissions(tmp_path):
     assert out.stat().st_mode & 0o777 == reference.stat().st_mode & 0o777
 
 
-@pytest.mark.skipif(not CONTRACT.is_file(), reason="../shared/contracts not available")
 @pytest.mark.parametrize("path", FIXTURES, ids=[p.stem for p in FIXTURES])
-def test_saved_file_follows_the_contract(path, tmp_path):
+def test_saved_file_follows_the_contract(path, tmp_path, shared):
     """What weavecap writes validates against the shared params contract."""
+    contract = shared("contracts", "params.schema.json")
     out = tmp_path / "saved.json"
     params.save(params.load(path), out)
-    jsonschema.validate(json.loads(out.read_text()), json.loads(CONTRACT.read_text()))
+    jsonschema.validate(json.loads(out.read_text()), json.loads(contract.read_text()))
 
 
-def test_project_schema_is_the_contract():
+def test_project_schema_is_the_contract(shared):
     """The project's own copy of the schema has not drifted from the shared contract."""
-    if not CONTRACT.is_file():
-        pytest.skip("../shared/contracts not available")
+    contract = shared("contracts", "params.schema.json")
     own = Path(params.__file__).parent / "schemas" / "params.schema.json"
-    assert json.loads(own.read_text()) == json.loads(CONTRACT.read_text())
+    assert json.loads(own.read_text()) == json.loads(contract.read_text())
 
 
 def test_loaded_types_and_shape():

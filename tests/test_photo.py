@@ -1,7 +1,7 @@
 """Tests for weavecap.photo: every test image is generated here, inside tmp_path.
 
 The real photos and RAW files under ``../shared/realdata`` are read in place (never copied:
-licences); those tests skip when the shared folder is absent.
+licences), through the ``shared`` fixture.
 """
 
 from __future__ import annotations
@@ -19,24 +19,6 @@ import pytest
 from weavecap import photo
 from weavecap.errors import InputError, PhotoError
 from weavecap.photo import linear_to_srgb, load_photo, save_exr, save_image, save_png, srgb_to_linear
-
-
-def _shared() -> Path | None:
-    cand = Path(__file__).resolve().parents[2] / "shared"
-    if cand.is_dir():
-        return cand
-    env = os.environ.get("WEAVECAP_SHARED")
-    return Path(env) if env and Path(env).is_dir() else None
-
-
-SHARED = _shared()
-REALDATA = SHARED / "realdata" if SHARED else None
-
-
-def needs_realdata(sub: str) -> Path:
-    if REALDATA is None or not (REALDATA / sub).is_dir():
-        pytest.skip(f"shared real data ({sub}) not available")
-    return REALDATA / sub
 
 
 # ---------------------------------------------------------------- helpers to make test files
@@ -483,8 +465,8 @@ RAW_BAD = ["exiftool_DNG_stub_no_image_data.dng", "exiftool_Nikon_stub_truncated
 
 
 @pytest.mark.parametrize("name, shape", list(zip(RAW_GOOD, [(2176, 4128), (512, 768)])))
-def test_real_raw_files_decode(name, shape):
-    f = needs_realdata("raw") / name
+def test_real_raw_files_decode(name, shape, shared):
+    f = shared("realdata", "raw", name)
     p = load_photo(f)
     check_photo(p, *shape)
     assert p.source_format == "raw" and p.bit_depth == 16
@@ -493,15 +475,15 @@ def test_real_raw_files_decode(name, shape):
 
 
 @pytest.mark.parametrize("name", RAW_BAD)
-def test_real_raw_stubs_rejected(name, capfd):
-    f = needs_realdata("raw") / name
+def test_real_raw_stubs_rejected(name, capfd, shared):
+    f = shared("realdata", "raw", name)
     assert_photo_error(f)
     out, err = capfd.readouterr()
     assert out == "" and err == "", (out, err)
 
 
-def test_real_photos_all_load():
-    root = needs_realdata("images")
+def test_real_photos_all_load(shared):
+    root = shared("realdata", "images")
     files = sorted(f for f in root.glob("*/*") if f.is_file())
     assert files
     for f in files:

@@ -10,9 +10,8 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
-SHARED = ROOT.parent / "shared"
-#: the published U3M 1.1 schema (vizoogmbh/u3m, BSD-3-Clause), where the shared data holds it
-PUBLISHED_U3M_SCHEMA = SHARED / "u3m" / "u3m_schema.json"
+#: the published U3M 1.1 schema (vizoogmbh/u3m, BSD-3-Clause), under ../shared
+PUBLISHED_U3M_SCHEMA = ("u3m", "u3m_schema.json")
 OWN_U3M_SCHEMA = ROOT / "weavecap" / "schemas" / "u3m-1.1.schema.json"
 GLTF_VALIDATOR = "gltf-validator@2.0.0-dev.3.10"  # the Khronos validator compiled to JS (npm)
 NODE_DIR = ROOT / "build" / "node"  # ignored by git (/build/)

@@ -16,7 +16,6 @@ from weavecap.patterns import load_pattern
 
 ROOT = Path(__file__).resolve().parents[2]
 FIXTURE = ROOT / "fixtures" / "params"
-SHARED_WIF = ROOT.parent / "shared" / "wif"
 TWILL = params.load(FIXTURE / "twill_2_1.json").pattern
 
 
@@ -72,14 +71,13 @@ def test_synth_renders_the_draft_instead_of_the_params_pattern(tmp_path):
     assert np.abs(img["a"] - img["c"]).mean() > 0.01  # the twill looks different
 
 
-@pytest.mark.skipif(not (SHARED_WIF / "bad").is_dir(), reason="../shared/wif is absent")
 @pytest.mark.parametrize("command", [
     ("synth", FIXTURE / "plain.json", "-o", "{out}/x.png"),
     ("fit", ROOT / "fixtures" / "photos" / "plain.png", "-o", "{out}/fit"),
 ])
-def test_a_bad_draft_exits_2_naming_the_section_and_writes_nothing(tmp_path, command):
+def test_a_bad_draft_exits_2_naming_the_section_and_writes_nothing(tmp_path, command, shared):
     args = [str(a).format(out=tmp_path) for a in command]
-    result = run(*args, "--pattern", SHARED_WIF / "bad" / "missing_tieup.wif")
+    result = run(*args, "--pattern", shared("wif", "bad", "missing_tieup.wif"))
     assert result.exit_code == 2, result.output
     assert "[TIEUP]" in result.output and "Traceback" not in result.output
     assert list(tmp_path.iterdir()) == []

@@ -20,8 +20,6 @@ from weavecap.photo import linear_to_srgb
 
 ROOT = Path(__file__).resolve().parents[2]
 FIXTURES = sorted((ROOT / "fixtures" / "params").glob("*.json"))
-SHARED_WIF = ROOT.parent / "shared" / "wif"
-needs_shared = pytest.mark.skipif(not SHARED_WIF.is_dir(), reason="../shared/wif is absent")
 
 
 def draft_text(*, threading, liftplan=None, tieup=None, treadling=None, rising=True, ends=None, picks=None,
@@ -128,11 +126,10 @@ def test_unthreaded_ends_and_idle_picks_are_part_of_the_drawdown(tmp_path):
 # the shared drafts (r-owen/dtx_to_wif_converter test data, MIT)
 
 
-@needs_shared
-def test_liftplan_with_defaults_reads_to_its_drawdown():
+def test_liftplan_with_defaults_reads_to_its_drawdown(shared):
     """From the file: 4 ends, end 1 on shaft 3, end 2 on shaft 2, ends 3-4 unthreaded; 6 picks,
     pick 1 raises shafts 1, 2, 4 (end 2 up), pick 4 raises 3, 4 (end 1 up), the others nothing."""
-    draft = wif.read_wif(SHARED_WIF / "good" / "liftplan_with_defaults.wif")
+    draft = wif.read_wif(shared("wif", "good", "liftplan_with_defaults.wif"))
     expected = np.ones((6, 4), dtype=np.uint8)
     expected[0, 1] = expected[3, 0] = 0
     np.testing.assert_array_equal(draft.drawdown, expected)
@@ -140,26 +137,24 @@ def test_liftplan_with_defaults_reads_to_its_drawdown():
     assert draft.lifting == "[LIFTPLAN]" and draft.title == "liftplan with defaults.dtx"
 
 
-@needs_shared
-def test_treadles_with_defaults_reads_to_its_drawdown():
+def test_treadles_with_defaults_reads_to_its_drawdown(shared):
     """From the file: 5 ends, end 3 on shaft 4, end 5 on shaft 1; treadle 1 raises shaft 1,
     treadle 2 shafts 2 and 4, treadles 3-6 nothing; pick 1 treads 1 and 6 (end 5 up), pick 3
     treads 2 and 5 (end 3 up), picks 2, 4-6 raise nothing."""
-    draft = wif.read_wif(SHARED_WIF / "good" / "treadles_with_defaults.wif")
+    draft = wif.read_wif(shared("wif", "good", "treadles_with_defaults.wif"))
     expected = np.ones((6, 5), dtype=np.uint8)
     expected[0, 4] = expected[2, 2] = 0
     np.testing.assert_array_equal(draft.drawdown, expected)
     assert draft.lifting == "[TIEUP] × [TREADLING]"
 
 
-@needs_shared
 @pytest.mark.parametrize("name, section, words", [
     ("missing_tieup.wif", "[TIEUP]", ("[TREADLING]", "add a [TIEUP]")),
     ("too_many_treadles_in_treadline.wif", "[TREADLING]", ("treadle 7", "1=1,6,7", "6 treadles")),
     ("warp_color_too_big.wif", "[WEFT COLORS]", ("6=11", "1 to 10")),
 ])
-def test_the_shared_bad_drafts_are_refused_naming_the_section(name, section, words):
-    path = SHARED_WIF / "bad" / name
+def test_the_shared_bad_drafts_are_refused_naming_the_section(name, section, words, shared):
+    path = shared("wif", "bad", name)
     with pytest.raises(InputError) as err:
         wif.read_wif(path)
     message = str(err.value)

@@ -102,10 +102,10 @@ def test_u3m_id_is_a_uuid4_that_depends_only_on_the_key():
     assert a == b != c and a[14] == "4" and a[19] in "89ab"
 
 
-@pytest.mark.skipif(not PUBLISHED_U3M_SCHEMA.is_file(), reason="../shared/u3m/u3m_schema.json is absent")
-def test_u3m_passes_the_published_schema(tmp_path, known):
+def test_u3m_passes_the_published_schema(tmp_path, known, shared):
+    schema = shared(*PUBLISHED_U3M_SCHEMA)
     _, doc = _u3m(tmp_path, known)
-    errors = list(validator_for(PUBLISHED_U3M_SCHEMA).iter_errors(doc))
+    errors = list(validator_for(schema).iter_errors(doc))
     assert not errors, errors[0].message
 
 

@@ -1,53 +1,33 @@
 """Preparation on the real photos of ``../shared/realdata`` (read in place, never copied).
 
-Skipped when the shared folder is absent. What is asserted is what holds today: every photo
-(easy, hard, negative) gives a result or a reason without crashing; every negative is
-rejected; the RAW files load or fail with a PhotoError; the easy photos whose grid.png was
-checked by eye keep their grid. The whole table is printed by
+Read through the ``shared`` fixture (skipped where ../shared is absent). What is asserted is
+what holds today: every photo (easy, hard, negative) gives a result or a reason without
+crashing; every negative is rejected; the RAW files load or fail with a PhotoError; the easy
+photos whose grid.png was checked by eye keep their grid. The whole table is printed by
 ``scripts/bench_prepare.py --realdata``.
 """
 
 from __future__ import annotations
 
-import os
-from pathlib import Path
-
 import pytest
+from shared_data import names
 
 from weavecap.errors import PhotoError
 from weavecap.photo import load_photo
 from weavecap.prepare import Prepared, Rejected, prepare_photo
 
 
-def _shared() -> Path | None:
-    cand = Path(__file__).resolve().parents[3] / "shared"
-    if cand.is_dir():
-        return cand
-    env = os.environ.get("WEAVECAP_SHARED")
-    return Path(env) if env and Path(env).is_dir() else None
-
-
-SHARED = _shared()
-pytestmark = pytest.mark.skipif(SHARED is None or not (SHARED / "realdata").is_dir(),
-                                reason="../shared/realdata is absent")
-
-
-def _files(sub: str) -> list[Path]:
-    if SHARED is None:
-        return []
-    return sorted((SHARED / "realdata" / sub).glob("*"))
-
-
-@pytest.mark.parametrize("path", _files("images/negative"), ids=lambda p: p.name)
-def test_negatives_are_rejected_with_a_reason(path):
+@pytest.mark.parametrize("name", names("realdata", "images", "negative"))
+def test_negatives_are_rejected_with_a_reason(name, shared):
+    path = shared("realdata", "images", "negative", name)
     r = prepare_photo(load_photo(path).rgb)
     assert isinstance(r, Rejected), f"{path.name} was not rejected"
     assert len(r.reason) > 20
 
 
-@pytest.mark.parametrize("path", _files("images/easy"), ids=lambda p: p.name)
-def test_easy_photos_do_not_crash(path):
-    r = prepare_photo(load_photo(path).rgb)
+@pytest.mark.parametrize("name", names("realdata", "images", "easy"))
+def test_easy_photos_do_not_crash(name, shared):
+    r = prepare_photo(load_photo(shared("realdata", "images", "easy", name)).rgb)
     assert isinstance(r, (Prepared, Rejected))
     if isinstance(r, Prepared):
         assert abs(r.rectification.rotation_deg) <= 45
@@ -55,19 +35,18 @@ def test_easy_photos_do_not_crash(path):
         assert all(p > 0 for p in r.grid.pitch_px)
 
 
-@pytest.mark.parametrize("path", [p for p in _files("images/easy") if p.name in
-                                  {"itd_type9cam2.png", "fabricnet_W077_plain.jpg", "fabricnet_W027_plain.jpg"}],
-                         ids=lambda p: p.name)
-def test_plain_weaves_checked_by_eye(path):
+@pytest.mark.parametrize("name", ["itd_type9cam2.png", "fabricnet_W077_plain.jpg", "fabricnet_W027_plain.jpg"])
+def test_plain_weaves_checked_by_eye(name, shared):
     """Photos whose grid.png was checked by eye: plain weave, 2 × 2, nearly frontal."""
-    r = prepare_photo(load_photo(path).rgb)
+    r = prepare_photo(load_photo(shared("realdata", "images", "easy", name)).rgb)
     assert isinstance(r, Prepared)
     assert tuple(r.grid.yarns) == (2, 2)
     assert abs(r.rectification.rotation_deg) < 5
 
 
-@pytest.mark.parametrize("path", _files("raw"), ids=lambda p: p.name)
-def test_raw_files_load_or_fail_cleanly(path):
+@pytest.mark.parametrize("name", names("realdata", "raw"))
+def test_raw_files_load_or_fail_cleanly(name, shared):
+    path = shared("realdata", "raw", name)
     try:
         ph = load_photo(path)
     except PhotoError as exc:
@@ -75,10 +54,6 @@ def test_raw_files_load_or_fail_cleanly(path):
         return
     small = ph.rgb[:: max(1, ph.height // 600), :: max(1, ph.width // 600)]
     assert isinstance(prepare_photo(small), (Prepared, Rejected))
-
-
-def _easy(name: str) -> Path:
-    return SHARED / "realdata" / "images" / "easy" / name
 
 
 def _input_pitch(r: Prepared) -> tuple[float, float]:
@@ -109,8 +84,8 @@ def _input_pitch(r: Prepared) -> tuple[float, float]:
     # photo) and over 2 warps within a leg: the 2/2 base's 4 wefts (2×15 before)
     ("brodatz_D16_herringbone_000deg.tiff", (4, 15), (8.0, 8.8), (8.7, 9.5)),
 ])
-def test_twill_and_satin_grids_checked_by_eye(name, yarns, warp_px, weft_px):
-    r = prepare_photo(load_photo(_easy(name)).rgb)
+def test_twill_and_satin_grids_checked_by_eye(name, yarns, warp_px, weft_px, shared):
+    r = prepare_photo(load_photo(shared("realdata", "images", "easy", name)).rgb)
     assert isinstance(r, Prepared), getattr(r, "reason", "")
     assert abs(r.rectification.rotation_deg) < 5
     warp, weft = _input_pitch(r)
@@ -120,23 +95,23 @@ def test_twill_and_satin_grids_checked_by_eye(name, yarns, warp_px, weft_px):
 
 
 @pytest.mark.parametrize("name", ["brodatz_D16_herringbone_030deg.tiff", "brodatz_D16_herringbone_120deg.tiff"])
-def test_turned_herringbone_keeps_its_repeat(name):
+def test_turned_herringbone_keeps_its_repeat(name, shared):
     """The same Brodatz D16 cloth digitised turned by 30° and 120°: the same 4 × 15 repeat (the
     warps and wefts swap at 120°: the turn is taken to within ±45°), 8.4 × 9.1 px yarns."""
-    r = prepare_photo(load_photo(SHARED / "realdata" / "images" / "hard" / name).rgb)
+    r = prepare_photo(load_photo(shared("realdata", "images", "hard", name)).rgb)
     assert isinstance(r, Prepared), getattr(r, "reason", "")
     assert sorted(r.grid.yarns) == [4, 15]
     fine, coarse = sorted(_input_pitch(r))
     assert 8.0 <= fine <= 8.8 and 8.7 <= coarse <= 9.5, (fine, coarse)
 
 
-def test_a_given_repeat_is_checked_against_the_repeat_the_photo_shows_not_its_widening():
+def test_a_given_repeat_is_checked_against_the_repeat_the_photo_shows_not_its_widening(shared):
     """D16's cells repeat over 2 wefts, widened to the 2/2 twill base's 4 (a grey twill's
     complement looks alike): a pattern given over 2 wefts is a multiple of what the photo shows
     and is used; 3 wefts is no multiple of 2 and is refused."""
     from weavecap.errors import ParamsError
 
-    rgb = load_photo(_easy("brodatz_D16_herringbone_000deg.tiff")).rgb
+    rgb = load_photo(shared("realdata", "images", "easy", "brodatz_D16_herringbone_000deg.tiff")).rgb
     own = prepare_photo(rgb)
     assert tuple(own.grid.yarns) == (4, 15) and own.checks["repeat_doubled"] == [True, False]
     given = prepare_photo(rgb, repeat=(2, 15))

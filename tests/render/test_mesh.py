@@ -17,7 +17,6 @@ from weavecap.errors import InputError
 from weavecap.render import mesh as rmesh
 from weavecap.render import shapes
 
-SHARED = Path(__file__).resolve().parents[2] / ".." / "shared" / "meshes"
 QUAD = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n"
 
 
@@ -151,14 +150,13 @@ def test_stretched_layout_of_folds_is_corrected_to_the_arc_length(tmp_path):
     assert np.ptp(mesh.uv[:, 0]) == pytest.approx(length, rel=1e-3)
 
 
-@pytest.mark.skipif(not SHARED.is_dir(), reason="../shared is absent")
-def test_the_towel_keeps_its_uvs_and_the_monkey_gets_some():
+def test_the_towel_keeps_its_uvs_and_the_monkey_gets_some(shared):
     """The towel (UVs in the file, .mtl missing) and the monkey (no UVs: xatlas) both read;
     their corrected coordinates stretch less than their layouts (measured: towel 1.26 → 1.14,
     monkey 1.20 → 1.14, 95th percentile)."""
-    towel = rmesh.load_mesh(SHARED / "towel.obj")
+    towel = rmesh.load_mesh(shared("meshes", "towel.obj"))
     assert towel.uv_source == "file" and len(towel.faces) == 2048
-    monkey = rmesh.load_mesh(SHARED / "monkey.obj")
+    monkey = rmesh.load_mesh(shared("meshes", "monkey.obj"))
     assert monkey.uv_source == "xatlas" and any("xatlas" in n for n in monkey.notes)
     for m in (towel, monkey):
         assert m.stretch["after"] < m.stretch["before"] and m.stretch["after"] < 1.2

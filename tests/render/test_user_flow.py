@@ -1,10 +1,9 @@
 """The user's flow end to end (issue 12): `weavecap fit` of a real photo, then `weavecap render`
-of its params.json on the towel. Skipped when ../shared is absent."""
+of its params.json on the towel (the photo and the towel from ../shared)."""
 
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,20 +12,18 @@ from click.testing import CliRunner
 from weavecap.cli.main import cli
 from weavecap.photo import load_photo
 
-SHARED = Path(__file__).resolve().parents[2] / ".." / "shared"
-PHOTO = SHARED / "realdata" / "images" / "easy" / "fabricnet_W092_plain.jpg"
-TOWEL = SHARED / "meshes" / "towel.obj"
 
 
 @pytest.mark.slow
-@pytest.mark.skipif(not (PHOTO.is_file() and TOWEL.is_file()), reason="../shared is absent")
-def test_fit_a_real_photo_then_render_it_on_the_towel(tmp_path):
+def test_fit_a_real_photo_then_render_it_on_the_towel(tmp_path, shared):
+    photo = shared("realdata", "images", "easy", "fabricnet_W092_plain.jpg")
+    towel = shared("meshes", "towel.obj")
     runner = CliRunner()
-    fit = runner.invoke(cli, ["fit", str(PHOTO), "-o", str(tmp_path / "fit"), "--quality", "draft", "-q"])
+    fit = runner.invoke(cli, ["fit", str(photo), "-o", str(tmp_path / "fit"), "--quality", "draft", "-q"])
     assert fit.exit_code == 0, fit.output
     params_file = tmp_path / "fit" / "params.json"
     out = tmp_path / "towel.png"
-    render = runner.invoke(cli, ["render", str(params_file), str(TOWEL), "-o", str(out), "--size", "160x90", "--spp",
+    render = runner.invoke(cli, ["render", str(params_file), str(towel), "-o", str(out), "--size", "160x90", "--spp",
                                  "4", "--view", "0,30", "--json"])
     assert render.exit_code == 0, render.output
     doc = json.loads(render.stdout)

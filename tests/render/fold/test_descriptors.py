@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 from scipy.optimize import minimize
@@ -14,7 +12,6 @@ from weavecap.render.fold import descriptors as D
 
 from .shapes import cylinder, heightfield, sphere
 
-SHARED = Path(__file__).resolve().parents[3] / ".." / "shared"
 
 
 def tangent_eigenvalues(poly: np.ndarray) -> np.ndarray:
@@ -223,11 +220,10 @@ def test_cache_lives_in_the_users_cache_folder(tmp_path, monkeypatch):
     assert len(list((tmp_path / "weavecap" / "fold").glob("*.npz"))) == 1
 
 
-@pytest.mark.skipif(not (SHARED / "meshes" / "towel.obj").is_file(), reason="../shared/meshes absent")
-def test_towel_has_valleys_on_both_sides():
+def test_towel_has_valleys_on_both_sides(shared):
     import trimesh
 
-    m = trimesh.load(SHARED / "meshes" / "towel.obj", process=False, force="mesh")
+    m = trimesh.load(shared("meshes", "towel.obj"), process=False, force="mesh")
     r = D.fold_radius(m.vertices, m.faces, normals=m.vertex_normals)
     d = D.compute_descriptors(m.vertices, m.faces, radius=r.value, normals=m.vertex_normals)
     assert np.all(np.isfinite(d.poly))
