@@ -1,7 +1,7 @@
 """Man pages generated from the click commands: ``man/weavecap.1`` and ``man/weavecap-CMD.1``.
 
 Run ``python -m weavecap.cli.manpages man`` (``make man``) after changing a command's help or
-options; ``tests/test_manpages.py`` fails while ``man/`` is stale. The pages are a pure function
+options; ``tests/cli/test_manpages.py`` fails while ``man/`` is stale. The pages are a pure function
 of the click command tree and the package version (no dates), so regenerating is a no-op when
 nothing changed.
 

@@ -6,7 +6,7 @@
   real-data tests; the summary says how many of them ran and how many skipped.
 - ``bad_params``: one bad params file per case of :data:`params_cases.BAD_PARAMS`, so that
   every bad file a user might hand to weavecap is checked by the library tests
-  (``test_params.py``) and the command tests (``test_cli_errors.py``) with one list.
+  (``test_params.py``) and the command tests (``cli/test_cli_errors.py``) with one list.
 """
 
 from __future__ import annotations

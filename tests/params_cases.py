@@ -2,7 +2,7 @@
 the bundled fixture plain.json, with what the error message must say.
 
 Used through the ``bad_params`` fixture of ``conftest.py`` by the library tests
-(``test_params.py``) and the command tests (``test_cli_errors.py``), and directly
+(``test_params.py``) and the command tests (``cli/test_cli_errors.py``), and directly
 (:func:`bad_params_text`) by the batch tests; a module of its own, since a test module's
 ``from conftest import`` can find another folder's conftest first.
 """

@@ -1,5 +1,5 @@
 """A faked round of the fit, for the tests of its end stages (:mod:`weavecap.fit.rounds`); a
-module of its own, shared by ``test_fit_target.py`` and ``estimate/test_context.py``."""
+module of its own, shared by ``fit/test_target.py`` and ``estimate/test_context.py``."""
 
 from __future__ import annotations
 

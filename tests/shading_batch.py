@@ -1,5 +1,5 @@
 """Batches of BYSDF parameter sets as Dr.Jit columns, shared by the lobe tests of the forward
-model (``test_bysdf.py``) and of the surface model (``render/test_surface_bsdf.py``)."""
+model (``model/test_bysdf.py``) and of the surface model (``render/test_surface_bsdf.py``)."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """weavecap.batch through `weavecap fit`: one outcome per photo, as the table says, and resuming
-past failures (tests/test_fit_cli.py covers results, rejected photos and interruptions)."""
+past failures (tests/cli/test_fit_cli.py covers results, rejected photos and interruptions)."""
 
 from __future__ import annotations
 

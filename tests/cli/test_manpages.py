@@ -8,7 +8,7 @@ from pathlib import Path
 from weavecap.cli import manpages
 from weavecap.cli.main import COMMANDS, cli
 
-MAN = Path(__file__).resolve().parents[1] / "man"
+MAN = Path(__file__).resolve().parents[2] / "man"
 FIX = "regenerate with `make man` (python -m weavecap.cli.manpages man)"
 
 

@@ -16,7 +16,7 @@ from click.testing import CliRunner
 from weavecap.cli.main import cli
 from weavecap.photo import load_photo
 
-PLAIN = Path(__file__).resolve().parents[1] / "fixtures" / "params" / "plain.json"
+PLAIN = Path(__file__).resolve().parents[2] / "fixtures" / "params" / "plain.json"
 TINY = ["--size", "32", "--tiles", "1x1", "--spp", "1"]
 
 

@@ -14,10 +14,10 @@ from click.testing import CliRunner
 from weavecap.cli.main import cli
 from weavecap.photo import save_png
 
-sys.path.insert(0, str(Path(__file__).parent / "prepare"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "prepare"))
 from synthetic import render  # noqa: E402
 
-SCHEMA = Path(__file__).resolve().parents[1] / "weavecap" / "schemas" / "report.schema.json"  # the contract's copy
+SCHEMA = Path(__file__).resolve().parents[2] / "weavecap" / "schemas" / "report.schema.json"  # the contract's copy
 OUTPUTS = ["rectified.png", "regularized.png", "grid.png", "prepare.json"]
 
 

@@ -19,7 +19,7 @@ from weavecap.fit.target import correlation_shift, lattice_drift, mean_repeat, r
 from weavecap.model.render import as_photographed, blurred_mse, mse_and_gradients, white_level
 from weavecap.model.scene import View, build_scene
 
-FIXTURES = Path(__file__).resolve().parents[1] / "fixtures" / "params"
+FIXTURES = Path(__file__).resolve().parents[2] / "fixtures" / "params"
 C = 16
 
 

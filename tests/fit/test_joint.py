@@ -14,7 +14,7 @@ from weavecap.model.render import render_numpy
 from weavecap.model.scene import View, build_scene
 from weavecap.params import CONTINUOUS_KEYS, FIT_RANGES
 
-FIXTURES = Path(__file__).resolve().parents[1] / "fixtures" / "params"
+FIXTURES = Path(__file__).resolve().parents[2] / "fixtures" / "params"
 
 
 def canvas_of(fabric: params.Fabric, c: int) -> np.ndarray:

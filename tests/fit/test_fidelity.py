@@ -171,7 +171,7 @@ def test_rendered_family_colours_follow_each_familys_own_colours():
     from weavecap import params
     from weavecap.fit.fidelity import rendered_family_lab
 
-    fabric = params.load(Path(__file__).resolve().parents[1] / "fixtures" / "params" / "twill_2_1.json")
+    fabric = params.load(Path(__file__).resolve().parents[2] / "fixtures" / "params" / "twill_2_1.json")
     base = rendered_family_lab(fabric, cell_px=12)
     assert all(np.isfinite(base[f]).all() for f in ("warp", "weft"))
     assert all(np.allclose(base[f], rendered_family_lab(fabric, cell_px=12)[f]) for f in ("warp", "weft"))

@@ -17,7 +17,7 @@ from weavecap.model.render import mse_and_gradients, render_numpy
 from weavecap.model.scene import View, build_scene
 from weavecap.params import FIT_RANGES
 
-FIXTURES = sorted((Path(__file__).resolve().parents[1] / "fixtures" / "params").glob("*.json"))
+FIXTURES = sorted((Path(__file__).resolve().parents[2] / "fixtures" / "params").glob("*.json"))
 RED, BLUE = (0.8, 0.1, 0.1), (0.1, 0.1, 0.8)
 
 

@@ -13,7 +13,7 @@ from click.testing import CliRunner
 
 from weavecap.cli.main import cli
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 PHOTOS = ROOT / "fixtures" / "photos"
 SCHEMAS = ROOT / "weavecap" / "schemas"
 

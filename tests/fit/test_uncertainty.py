@@ -13,7 +13,7 @@ from weavecap.fit.uncertainty import DETERMINED_SE, correlation_area, standard_e
 from weavecap.model.render import render_numpy
 from weavecap.model.scene import View, build_scene
 
-FIXTURES = Path(__file__).resolve().parents[1] / "fixtures" / "params"
+FIXTURES = Path(__file__).resolve().parents[2] / "fixtures" / "params"
 
 
 def test_correlation_area_of_white_blurred_and_grey_noise():
