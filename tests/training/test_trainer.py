@@ -46,7 +46,7 @@ def test_epochs_fit_the_line_and_a_resumed_run_matches_an_uninterrupted_one(tmp_
     _epochs(first, 23)  # stopped after 23 epochs
     messages = []
     again = _trainer(tmp_path / "cut", {"lr": 0.05}, messages=messages)
-    assert again.done == 23 and "resuming after 23" in messages[0]
+    assert again.done == 23 and "23 epochs or steps done" in messages[0]
     _epochs(again, 60)
     for key, value in _state(whole.model).items():
         torch.testing.assert_close(_state(again.model)[key], value, rtol=0, atol=0)

@@ -115,7 +115,8 @@ class Trainer:
             return 0, 0.0
         for name, part in self.parts.items():
             part.load_state_dict(state[name])
-        self.progress(f"train: resuming after {int(state['done'])} done ({float(state['seconds']):.0f} s)")
+        self.progress(f"train: resuming from {self.path}: {int(state['done'])} epochs or steps done "
+                      f"({float(state['seconds']):.0f} s)")
         return int(state["done"]), float(state["seconds"])
 
     def save(self) -> None:
