@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import sys
+import time
 from pathlib import Path
 
 import click
@@ -113,7 +114,7 @@ def render(inputs, out, mode, spp, size, view, camera, fov_deg, margin, light, g
       weavecap render fabric.json scan.ply -o scan.png --units mm --object Shirt --json
     """
     from weavecap.errors import InputError
-    from weavecap.io import check_writable, refuse_overwrite
+    from weavecap.io import check_writable, folder_lock, refuse_overwrite
     from weavecap.photo import supported_output
 
     if len(inputs) < 2:
@@ -125,6 +126,7 @@ def render(inputs, out, mode, spp, size, view, camera, fov_deg, margin, light, g
             raise InputError(f"{out}: with several PARAMS files, -o names a folder (one image each)")
         check_batch_options(jobs, scheduler)
         check_writable(out, folder=True)
+        click.get_current_context().with_resource(folder_lock(out))  # before the mesh: held to the end
     else:
         for name, given in (("--sheet", sheet), ("--jobs", jobs > 1), ("--scheduler", scheduler)):
             if given:
@@ -153,8 +155,6 @@ def render(inputs, out, mode, spp, size, view, camera, fov_deg, margin, light, g
         if error or (not quiet and verbose >= level):
             click.echo(f"weavecap render: {message}", err=True)
 
-    import time
-
     from weavecap.render.mesh import load_mesh
 
     t0 = time.perf_counter()
@@ -169,11 +169,8 @@ def render(inputs, out, mode, spp, size, view, camera, fov_deg, margin, light, g
                  "uv_source": mesh.uv_source, "stretch": mesh.stretch, "area_m2": mesh.area,
                  "bounds_m": mesh.bounds.tolist(), "notes": mesh.notes, "seconds": round(mesh_s, 3)}
     if many:
-        from weavecap.io import folder_lock
-
-        with folder_lock(out):
-            doc, status = _render_batch(params_files, mesh, options, pattern, out, sheet=sheet, jobs=jobs,
-                                        scheduler=scheduler, force=force, say=say)
+        doc, status = _render_batch(params_files, mesh, options, pattern, out, sheet=sheet, jobs=jobs,
+                                    scheduler=scheduler, force=force, say=say)
     else:
         doc, status = _render_one(params_files[0], fabric, mesh, options, out, mesh_s=mesh_s, force=force,
                                   progress=not quiet and (sys.stderr.isatty() or verbose > 0), say=say)

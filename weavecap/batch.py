@@ -171,12 +171,16 @@ def _same_input(record: dict, source: Path) -> bool:
 def _refusal(job: Job, item: Item, record: dict | None) -> str:
     """Why ``item.folder``'s files are not this run's to replace without ``--force``."""
     held = ", ".join(name for name in job.outputs if (item.folder / name).exists())
+    source = record.get("input") if record is not None else None
     if record is None:
         what = (f"holds {held} but no finished {job.record}: not a weavecap result of this input (files of "
                 "something else, or of an older weavecap interrupted)")
+    elif _same_input(record, item.source):
+        what = f"holds results of another run of this file, whose {job.record} says {record.get('status')!r}"
     else:
-        what = (f"holds results of another run: its {job.record} is of {record.get('input', {}).get('path')!r}, "
-                f"a different file from {str(item.source)!r} (compared by SHA-256)")
+        of = repr(source.get("path")) if isinstance(source, dict) else "an unknown file"
+        what = (f"holds results of another run: its {job.record} is of {of}, a different file from "
+                f"{str(item.source)!r} (compared by SHA-256)")
     return f"{item.folder}: {what}; use --force to replace them or choose another -o folder (nothing was written)"
 
 

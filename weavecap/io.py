@@ -38,6 +38,9 @@ from .errors import InputError
 LOCK = ".weavecap.lock"
 #: prefix of the folder a result set is staged in, inside its own folder (:func:`write_result_set`)
 STAGING = ".weavecap-partial-"
+#: the longest folder name made from an input's name, in bytes (file systems allow 255, and a
+#: number may be appended)
+MAX_NAME_BYTES = 200
 #: deepest nesting of arrays and objects a JSON file weavecap reads may have (:func:`loads_json`)
 MAX_JSON_DEPTH = 64
 
@@ -69,10 +72,11 @@ def plain_name(name: str, *, what: str) -> str:
 
 def folder_name(stem: str, *, fallback: str, reserved: Iterable[str] = ()) -> str:
     """A plain, visible folder name made from an input's ``stem``: leading dots and folder
-    separators dropped (``..`` → ``fallback``), control characters replaced by ``_``, and a
-    ``_`` appended to a name in ``reserved`` (the files a batch keeps at the top of ``-o``)."""
+    separators dropped (``..`` → ``fallback``), control characters replaced by ``_``, cut to
+    :data:`MAX_NAME_BYTES`, and a ``_`` appended to a name in ``reserved`` (the files a batch
+    keeps at the top of ``-o``)."""
     name = "".join("_" if ord(c) < 32 or c in "/\\" else c for c in stem).lstrip(".").strip()
-    name = name or fallback
+    name = name.encode("utf-8")[:MAX_NAME_BYTES].decode("utf-8", "ignore") or fallback
     return name + "_" if name in set(reserved) else name
 
 

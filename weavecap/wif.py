@@ -302,6 +302,10 @@ def _check_numbers(path: str, data) -> tuple[int, int]:
             if key < 1 or min(values) < 0:
                 raise _refuse(path, section, f"line {key}={','.join(map(str, sorted(values)))}: numbers start at 1 "
                               f"(a {kind} of 0 means none); negative numbers are not allowed")
+    shafts = set().union(*data.threading.values(), *data.tieup.values(), *data.liftplan.values())
+    if len(shafts) > MAX_THREADS:  # the drawdown holds a matrix of ends × shafts
+        raise _refuse(path, "threading", f"{len(shafts)} different shafts is more than weavecap reads (at most "
+                      f"{MAX_THREADS}); give one or a few repeats of the draft")
     ends = max([data.warp.threads, *data.threading])
     lift_keys = data.liftplan if data.liftplan else data.treadling
     picks = max([data.weft.threads, *lift_keys])

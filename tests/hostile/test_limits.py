@@ -66,6 +66,24 @@ def test_a_wif_declaring_thousands_of_threads_is_read_in_seconds(tmp_path):
         wif.read_wif(path)
 
 
+def test_a_wif_with_thousands_of_shafts_is_refused(tmp_path):
+    """One threading line naming 9000 shafts would make a matrix of ends × shafts."""
+    path = tmp_path / "shafts.wif"
+    text = wif_text(4).replace("[THREADING]\n1=1", "[THREADING]\n1=1," + ",".join(map(str, range(3, 9002))))
+    path.write_text(text.replace("Shafts=2", "Shafts=9001"))
+    with pytest.raises(InputError, match="9001 different shafts is more than weavecap reads"):
+        wif.read_wif(path)
+
+
+def test_a_huge_text_pattern_is_refused_unread(tmp_path):
+    from weavecap.patterns import MAX_TEXT_BYTES, load_pattern
+
+    path = tmp_path / "pattern.txt"
+    path.write_text("0 1\n" * (MAX_TEXT_BYTES // 4 + 1))
+    with pytest.raises(InputError, match="too large for a pattern file"):
+        load_pattern(path)
+
+
 def test_a_large_mesh_says_what_it_is_doing(tmp_path, monkeypatch):
     """From LARGE_FACES triangles each step of reading gets a line (a 2-million-triangle mesh
     took minutes without a word)."""

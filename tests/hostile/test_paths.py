@@ -45,6 +45,7 @@ def test_batch_folders_are_plain_distinct_names_inside_o(tmp_path):
     assert [p.name for p in batch.folders(sources[:3], tmp_path, names)] == ["_.._etc", "_abs", "ok"]
     assert all(p.parent == tmp_path for p in batch.folders(sources[:3], tmp_path, names))
     assert folder_name("\x00\n", fallback="photo") == "__"
+    assert len(folder_name("é" * 300, fallback="photo").encode()) == 200  # under the file systems' 255
 
 
 def test_the_guard_refuses_a_path_outside_its_folder(tmp_path):
