@@ -100,7 +100,8 @@ def cli() -> None:
       weavecap doctor
       weavecap bench
 
-    Exit status: 0 done; 2 bad usage or invalid input file; 3 photo rejected; 1 unexpected.
+    Exit status: 0 done; 2 bad usage or invalid input file; 3 photo rejected; 1 unexpected;
+    130 interrupted.
     """
 
 

@@ -46,8 +46,8 @@ def prepare(photo: Path, out_dir: Path, pattern_file: Path | None, force: bool, 
       weavecap prepare swatch.jpg -o prepared/ --pattern draft.wif
       for f in photos/*.jpg; do weavecap prepare "$f" -o "out/$(basename "$f" .jpg)" -q; done
     """
-    from weavecap.errors import PhotoError
-    from weavecap.io import check_writable, folder_lock, refuse_overwrite, write_result_set
+    from weavecap.errors import InputError, PhotoError
+    from weavecap.io import check_writable, folder_lock, not_an_input, refuse_overwrite, write_result_set
     from weavecap.patterns import load_pattern
     from weavecap.photo import load_photo, save_png
     from weavecap.prepare import PrepareConfig, Rejected, prepare_photo
@@ -56,6 +56,8 @@ def prepare(photo: Path, out_dir: Path, pattern_file: Path | None, force: bool, 
         if not quiet and verbose >= level:
             click.echo(f"weavecap prepare: {message}", err=True)
 
+    if not_an_input(photo, "photo"):
+        raise InputError(not_an_input(photo, "photo") + " (nothing was written)")
     check_writable(out_dir, folder=True)
     click.get_current_context().with_resource(folder_lock(out_dir))  # held to the end of the command
     for name in OUTPUTS:

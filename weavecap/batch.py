@@ -35,7 +35,7 @@ from pathlib import Path
 from typing import Callable, Iterable, Iterator, Protocol
 
 from .errors import InputError, WeavecapError, outcome, outcome_of_status, worst_exit
-from .io import LOCK, atomic_write_text, folder_name, inside, loads_json, staged, write_result_set
+from .io import LOCK, atomic_write_text, folder_name, inside, loads_json, not_an_input, staged, write_result_set
 
 SUMMARY = "summary.jsonl"
 FINISHED = ("ok", "rejected")  # statuses of a record that a resumed batch skips
@@ -204,8 +204,8 @@ def plan(job: Job, sources: Iterable[Path], out: Path, *, force: bool = False,
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise InputError(f"{out}: exists and is not a folder; give a folder name for -o")
-    if len(sources) == 1 and _not_a_file(job, sources[0]):
-        raise InputError(_not_a_file(job, sources[0]) + " (nothing was written)")
+    if len(sources) == 1 and not_an_input(sources[0], job.key):
+        raise InputError(not_an_input(sources[0], job.key) + " (nothing was written)")
     items = [Item(p, f) for p, f in zip(sources, folders(sources, out, names, fallback=job.key, reserved=reserved))]
     where = [out / SUMMARY] if len(items) > 1 else []
     for path in where + [item.folder / name for item in items for name in job.outputs]:
@@ -227,16 +227,6 @@ def plan(job: Job, sources: Iterable[Path], out: Path, *, force: bool = False,
             raise InputError(_refusal(job, item, record))
         todo.append(item)
     return Batch(job=job, out=out, items=items, todo=todo, done=done, force=force)
-
-
-def _not_a_file(job: Job, source: Path) -> str:
-    """Why ``source`` is no input at all (missing, or a folder), or ``""``: a usage error.
-    Anything else that exists (a device, a pipe) is the job's to judge."""
-    if source.is_dir():
-        return f"{source}: is a folder, not a {job.key} file; give the path of a file inside it"
-    if not source.exists():
-        return f"{source}: no such {job.key}; check the path"
-    return ""
 
 
 def summary_line(job: Job, item: Item, record: dict, status: str | None = None) -> dict:
@@ -280,8 +270,8 @@ def attempt(job: Job, source: str, folder: str, threads: int | None = None) -> t
     _set_threads(threads)
     t0 = time.perf_counter()
     try:
-        if _not_a_file(job, Path(source)):
-            raise InputError(_not_a_file(job, Path(source)))
+        if not_an_input(Path(source), job.key):
+            raise InputError(not_an_input(Path(source), job.key))
         record = job.run(source, folder)
         return record, record["status"]
     except Exception as exc:  # noqa: BLE001 - one bad input must not stop a batch

@@ -318,6 +318,18 @@ def remove_unfinished() -> None:
 # reading
 
 
+def not_an_input(path: str | os.PathLike, what: str) -> str:
+    """Why ``path`` is no input file at all — missing, or a folder — or ``""``: a usage error
+    (exit 2) where a ``what`` (``photo``, ``params``) file is wanted. Anything else that exists
+    (a device, a pipe, an unreadable file) is for the reader of that input to judge."""
+    path = Path(path)
+    if path.is_dir():
+        return f"{path}: is a folder, not a {what} file; give the path of a file inside it"
+    if not path.exists():
+        return f"{path}: no such {what}; check the path"
+    return ""
+
+
 def loads_json(text: str):
     """``json.loads``, with nesting deeper than :data:`MAX_JSON_DEPTH` a ``ValueError`` (the
     standard parser recurses, and a file nested 100 000 deep exhausts Python's stack)."""
