@@ -397,21 +397,32 @@ def check_texture(tex: Path, fld: str, path: str | None) -> None:
     """Refuse a body-colour texture that is not a readable image file, with :class:`ParamsError`
     (exit 2: the params file is what is wrong, not a photo) naming the field and why.
 
-    Decoded here, once, so that a texture fails when its params file is read, not in the
-    middle of a render (where an unreadable one was a "photo rejected", exit 3)."""
-    from .errors import PhotoError
-    from .photo import load_photo
-
+    Decoded here, so that a texture fails when its params file is read, not in the middle of
+    a render (where an unreadable one was a "photo rejected", exit 3); once per file version
+    (a fit replaces values thousands of times)."""
     fix = "give a path relative to the params file or an RGB colour [r, g, b] in [0, 1]"
     if not tex.exists():
         raise ParamsError(f"texture file {str(tex)!r} does not exist; {fix}", field=fld, path=path)
     if not tex.is_file():
         kind = "a folder" if tex.is_dir() else "not a regular file (a device or a pipe)"
         raise ParamsError(f"texture {str(tex)!r} is {kind}; {fix}", field=fld, path=path)
+    stat = tex.stat()
+    problem = _texture_problem(str(tex), stat.st_mtime_ns, stat.st_size)
+    if problem:
+        raise ParamsError(f"the texture cannot be used: {problem}", field=fld, path=path)
+
+
+@functools.lru_cache(maxsize=64)
+def _texture_problem(tex: str, mtime_ns: int, size: int) -> str:
+    """Why the image file ``tex`` (of this modification time and size) cannot be read, or ``""``."""
+    from .errors import PhotoError
+    from .photo import load_photo
+
     try:
         load_photo(tex)
     except PhotoError as exc:
-        raise ParamsError(f"the texture cannot be used: {exc}", field=fld, path=path) from None
+        return str(exc)
+    return ""
 
 
 def from_dict(doc: Any, *, base: Path | None = None, path: str | None = None) -> Fabric:
