@@ -79,18 +79,3 @@ def parse_offset(ctx, param, value: str) -> tuple[float, float]:
 def json_option(what: str):
     """``--json``: print ``what`` (``"the summary"``) on standard output (:meth:`Reporter.json`)."""
     return click.option("--json", "as_json", is_flag=True, help=f"Print {what} as JSON on standard output.")
-
-
-def claim_work_folder(work, plan: dict, *, name: str = "config.json") -> None:
-    """Make ``work`` hold the data of ``plan`` (a dict of settings, recorded in ``work/name``):
-    refuse, naming the file, a folder that holds data made with other settings."""
-    import json
-
-    from weavecap.errors import InputError
-
-    plan_file = work / name
-    if plan_file.is_file() and json.loads(plan_file.read_text()) != json.loads(json.dumps(plan)):
-        raise InputError(f"{work}: holds data or a checkpoint made with other settings ({plan_file}); use another "
-                         "--work folder or delete that one")
-    work.mkdir(parents=True, exist_ok=True)
-    plan_file.write_text(json.dumps(plan, indent=1) + "\n")
