@@ -4,20 +4,22 @@ Commands are imported only when invoked, so ``weavecap --help`` starts fast and 
 Mitsuba. Errors a user can fix (:class:`weavecap.errors.WeavecapError`) become a one-paragraph
 message and their exit status from :data:`weavecap.errors.OUTCOMES` (2 input, 3 rejected
 photo); anything else — a command module that fails to import included — exits 1 with a short
-message (set ``WEAVECAP_DEBUG=1`` for the traceback). Only a name missing from
-:data:`COMMANDS` is "No such command" (exit 2).
+message (set ``WEAVECAP_DEBUG=1`` for the traceback; :mod:`cli.process`, which also stops a
+command at once on Ctrl-C). Only a name missing from :data:`COMMANDS` is "No such command"
+(exit 2).
 """
 
 from __future__ import annotations
 
 import importlib
-import os
-import sys
 
 import click
 
 from weavecap import __version__
 from weavecap.errors import WeavecapError, outcome
+
+from . import process
+from .process import INTERRUPTED
 
 #: command name → "module:function" (modules under weavecap.cli)
 COMMANDS = {
@@ -31,9 +33,6 @@ COMMANDS = {
     "train-initializer": "weavecap.cli.train_initializer:train_initializer",
     "train-renderer": "weavecap.cli.train_renderer:train_renderer",
 }
-
-
-INTERRUPTED = "weavecap: interrupted; finished outputs are kept, partial ones were not written (run again to resume)"
 
 
 class UserError(click.ClickException):
@@ -100,25 +99,15 @@ def cli() -> None:
       weavecap doctor
       weavecap bench
 
-    Exit status: 0 done; 2 bad usage or invalid input file; 3 photo rejected; 1 unexpected.
+    Exit status: 0 done; 2 bad usage or invalid input file; 3 photo rejected; 1 unexpected;
+    130 interrupted.
     """
 
 
 def main(argv: list[str] | None = None) -> None:
-    """Console-script entry point."""
-    try:
-        cli.main(args=argv, prog_name="weavecap", standalone_mode=True)
-    except SystemExit:
-        raise
-    except KeyboardInterrupt as exc:
-        click.echo(INTERRUPTED, err=True)
-        sys.exit(outcome(exc).exit)
-    except Exception as exc:  # noqa: BLE001 - the last line of defence: no tracebacks for users
-        if os.environ.get("WEAVECAP_DEBUG"):
-            raise
-        click.echo(f"weavecap: unexpected error: {type(exc).__name__}: {exc}\n"
-                   "  (set WEAVECAP_DEBUG=1 to see the traceback, and please report it)", err=True)
-        sys.exit(outcome(exc).exit)
+    """Console-script entry point: the command as :func:`cli.process.run` runs it (a worker
+    thread, so that Ctrl-C and SIGTERM stop it within a fraction of a second)."""
+    process.run(lambda: cli.main(args=argv, prog_name="weavecap", standalone_mode=True))
 
 
 if __name__ == "__main__":

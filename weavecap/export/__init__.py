@@ -17,13 +17,13 @@ from __future__ import annotations
 import functools
 import os
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from datetime import datetime, timezone
 from pathlib import Path
 
 from .. import __version__
 from ..errors import InputError
-from ..io import refuse_overwrite
+from ..io import inside, plain_name, refuse_overwrite
 from ..params import Fabric
 from .maps import PbrMaps
 
@@ -158,7 +158,7 @@ def _mitsuba(fabric: Fabric, out: Path, options: ExportOptions, material: Materi
     from . import mitsuba
 
     folder = out / "mitsuba"
-    files = mitsuba.scene_files(options.name)
+    files = mitsuba.scene_files(options.name, fabric)
     return Plan([folder / f for f in files.values()],
                 lambda: mitsuba.save_scenes(material.maps, fabric, folder, name=options.name,
                                             swatch_mm=options.swatch_mm, texels_per_yarn=options.texels_per_yarn))
@@ -189,9 +189,12 @@ def _preview(maps: PbrMaps):
 
 def default_name(params_path: str | os.PathLike) -> str:
     """The output stem for a params file: its stem, or its folder's name for ``params.json``
-    (what ``weavecap fit`` writes)."""
+    (what ``weavecap fit`` writes), made a plain name (:func:`weavecap.io.folder_name`: a
+    params file ``...json`` gives ``fabric``)."""
+    from ..io import folder_name
+
     p = Path(params_path).resolve()
-    return p.parent.name if p.stem == "params" and p.parent.name else p.stem
+    return folder_name(p.parent.name if p.stem == "params" and p.parent.name else p.stem, fallback="fabric")
 
 
 def export(fabric: Fabric, out: str | os.PathLike, options: ExportOptions) -> list[Path]:
@@ -205,10 +208,12 @@ def export(fabric: Fabric, out: str | os.PathLike, options: ExportOptions) -> li
     Raises
     ------
     InputError
-        (exit 2) An unknown format, ``out`` is a file, or an output exists and ``force`` is
-        false — checked for every output before anything is written.
+        (exit 2) An unknown format, ``out`` is a file, ``options.name`` is not a plain file
+        name (:func:`weavecap.io.plain_name`: every file stays under ``out``), or an output
+        exists and ``force`` is false — checked for every output before anything is written.
     """
     out = Path(out)
+    plain_name(options.name, what="the output name")
     if out.exists() and not out.is_dir():
         raise InputError(f"{out}: exists and is not a folder; give a folder for -o")
     unknown = [f for f in options.formats if f not in FORMATS]
@@ -220,6 +225,7 @@ def export(fabric: Fabric, out: str | os.PathLike, options: ExportOptions) -> li
     plans = [FORMATS[f](fabric, out, options, material) for f in dict.fromkeys(options.formats)]
     for plan in plans:
         for path in plan.paths:
+            inside(out, path)
             refuse_overwrite(path, force=options.force)
     out.mkdir(parents=True, exist_ok=True)
     written = []
@@ -227,3 +233,29 @@ def export(fabric: Fabric, out: str | os.PathLike, options: ExportOptions) -> li
         plan.write()
         written.extend(plan.paths)
     return written
+
+
+def export_file(params_file: str | os.PathLike, out: str | os.PathLike, options: ExportOptions, *,
+                pattern=None) -> list[Path]:
+    """``weavecap export``: the fabric of ``params_file`` (with ``pattern``, (wefts, warps)
+    uint8, in place of its own when given) written by :func:`export` into the folder ``out``,
+    found writable before any work and held for the run (:func:`weavecap.io.folder_lock`).
+    The U3M material's time stamp and id come from the file: its modification time, its fabric.
+
+    Raises
+    ------
+    InputError
+        ``out`` cannot be written or another run holds it, a bad params file or pattern, or
+        what :func:`export` refuses.
+    """
+    from .. import params as wparams
+    from ..io import check_writable, folder_lock
+
+    check_writable(out, folder=True)
+    fabric = wparams.load(params_file)
+    if pattern is not None:
+        fabric = fabric.replace({"pattern": pattern})
+    options = replace(options, created=datetime.fromtimestamp(Path(params_file).stat().st_mtime, timezone.utc),
+                      source=wparams.dumps(fabric).encode())
+    with folder_lock(out):
+        return export(fabric, out, options)
