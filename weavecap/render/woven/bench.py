@@ -13,7 +13,7 @@ For each fabric and view (SIZE² pixels):
 
 - truth: the direct-lighting reference (:class:`weavecap.render.bsdf.SurfaceBSDF` with the
   ``weavecap_path`` integrator at ``max_depth=2``, as ``--mode direct``) at TRUTH_SPP;
-- neural: :class:`.bsdf.NeuralSurfaceBSDF` with ``woven_direct`` at one sample a pixel;
+- neural: :class:`.bsdf.NeuralSurfaceBSDF` with ``fabric_direct`` at one sample a pixel;
 - the reference at 1 spp, at equal time, and at REF_SPPS, other seeds than the truth's; its
   MSE against spp is interpolated (log–log) to the spp where it reaches the neural MSE
   (extrapolated with MSE ∝ 1/spp past the last), and that spp's time over the neural time is
@@ -137,9 +137,9 @@ def reference_integrator() -> dict:
 
 
 def neural_integrator() -> dict:
-    from . import integrator as _integrator  # noqa: F401
+    from .. import direct as _direct  # noqa: F401  (registers "fabric_direct")
 
-    return {"type": "woven_direct", "background": BACKDROP}
+    return {"type": "fabric_direct", "background": BACKDROP}
 
 
 def plain_bsdf(maps, fabric: Fabric):
