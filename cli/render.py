@@ -8,6 +8,8 @@ from pathlib import Path
 
 import click
 
+from weavecap.render.modes import DEFAULT_MODE
+
 from .options import (check_batch_options, force_option, jobs_option, pattern_option, quiet_option, scheduler_option,
                       seed_option, verbose_option)
 
@@ -33,9 +35,10 @@ def _offset(ctx, param, value: str) -> tuple[float, float]:
 
 
 def _mode_help() -> str:
-    return ("neural: the woven neural BSDF at each pixel's footprint, direct light, 1 spp by default "
-            "(Chen et al. 2024); reference: path tracing of the surface model; direct: direct lighting only "
-            "(one bounce).")
+    return ("direct: direct lighting (one bounce) of the surface model, every light at every sample, samples "
+            "until the noise is below what shows; reference: path tracing of the surface model; neural: the "
+            "woven neural BSDF at each pixel's footprint, direct light (Chen et al. 2024; faster close up, its "
+            "colours a few percent off: docs/render.md).")
 
 
 @click.command(context_settings={"max_content_width": 100})
@@ -44,9 +47,10 @@ def _mode_help() -> str:
 @click.option("-o", "--output", "out", required=True, type=click.Path(path_type=Path),
               help="Image to write (.png sRGB, .exr linear, .tif 16-bit); with several PARAMS, a folder "
                    "(OUT/<name>/render.png per params file, named after it, and OUT/summary.jsonl).")
-@click.option("--mode", default="neural", show_default=True, help=_mode_help())
+@click.option("--mode", default=DEFAULT_MODE, show_default=True, help=_mode_help())
 @click.option("--spp", type=click.IntRange(1, 65536), default=None,
-              help="Samples per pixel  [default: 1 for neural (pixel centres), 64 for the others]")
+              help="Samples per pixel  [default: direct until the noise is below 1 L*, at most 512; neural 4 "
+                   "(a 2x2 grid of footprints); reference 64]")
 @click.option("--size", default="1280x720", show_default=True, callback=_size, help="Image size WxH in pixels.")
 @click.option("--view", default="front", show_default=True,
               help="front (camera on +z looking at -z, y up), back, left, right, top, or AZ,EL in degrees.")

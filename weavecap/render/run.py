@@ -4,7 +4,8 @@ its physical size, the scene framed and lit, rendered in the chosen mode, a fold
 The mesh is read once (:func:`weavecap.render.mesh.load_mesh`) and may carry several fabrics in
 turn; :func:`render_fabric` renders one. Samples are taken in passes of at most PASS_SPP
 (progress between passes); pass ``k`` uses seed ``seed * MAX_PASSES + k``, so a seed gives the
-same image bit for bit.
+same image bit for bit. Without ``--spp`` a mode that does not fix its own takes passes until
+the image's noise is below what shows (:func:`adaptive_passes`).
 """
 
 from __future__ import annotations
@@ -39,7 +40,7 @@ class RenderOptions:
     angles in degrees, ``size`` is (width, height) in pixels."""
 
     mode: str = "reference"
-    spp: int = 64
+    spp: int | None = 64  # None: until the noise is below NOISE_L (adaptive_passes)
     size: tuple[int, int] = (1280, 720)
     view: tuple[float, float] = (0.0, 0.0)
     camera: str = "perspective"
@@ -57,7 +58,7 @@ class RenderOptions:
     texels_per_yarn: int | None = None
 
     def __post_init__(self):
-        if not 1 <= self.spp <= MAX_SPP:
+        if self.spp is not None and not 1 <= self.spp <= MAX_SPP:
             raise InputError(f"--spp {self.spp}: use a number of samples per pixel in [1, {MAX_SPP}]")
         w, h = self.size
         if w < 1 or h < 1 or w * h > MAX_PIXELS:
@@ -162,7 +163,7 @@ def prepare_render(fabric: Fabric, mesh: RenderMesh, options: RenderOptions) -> 
     linear = pixels_per_yarn / maps.texels_per_yarn >= LINEAR_FROM
     bsdf = chosen.bsdf(fabric, maps, placement, noise, linear)
     scene_dict = {"type": "scene", "integrator": chosen.integrator(lights, options),
-                  "sensor": camera.sensor(min(options.spp, PASS_SPP), chosen.sampler), "garment": mesh.to_mitsuba(bsdf), **lights.emitters}
+                  "sensor": camera.sensor(AUTO_PASS_SPP if options.spp is None else min(options.spp, PASS_SPP), chosen.sampler), "garment": mesh.to_mitsuba(bsdf), **lights.emitters}
     if options.ground:
         scene_dict["ground"] = ground(mesh.bounds)
     scene = mi.load_dict(scene_dict)
@@ -200,7 +201,12 @@ def render_fabric(fabric: Fabric, mesh: RenderMesh, options: RenderOptions, *, p
     prepared = prepare_render(fabric, mesh, options)
     timings = prepared.timings
     t = time.perf_counter()
-    image = render_passes(prepared.scene, options.spp, options.seed, progress=progress)
+    if options.spp is None:
+        image, spp, noise = adaptive_passes(prepared.scene, options.seed, progress=progress)
+        prepared.info.update(spp=spp, spp_rule=f"until the noise is at most {NOISE_L} L* (median), at most {AUTO_MAX_SPP}",
+                             noise_l=noise)
+    else:
+        image = render_passes(prepared.scene, options.spp, options.seed, progress=progress)
     timings["render"] = time.perf_counter() - t
     if prepared.fold_term is not None:
         t = time.perf_counter()
@@ -232,3 +238,57 @@ def render_passes(scene, spp: int, seed: int, *, progress=None) -> np.ndarray:
         if progress is not None:
             progress(done, spp)
     return (total / spp).astype(np.float32)
+
+
+#: adaptive sampling (:func:`adaptive_passes`): passes of AUTO_PASS_SPP samples until the
+#: median noise of the image is at most NOISE_L in CIE L* (1 is about the smallest lightness
+#: step one sees side by side), at least AUTO_MIN_SPP and at most AUTO_MAX_SPP samples
+AUTO_PASS_SPP, AUTO_MIN_SPP, AUTO_MAX_SPP = 8, 16, 512
+NOISE_L = 1.0
+#: median |N(0, 1)|: the median of |A - B| / 2 over pixels of one noise level is this × the
+#: standard error of the mean of A and B
+HALF_NORMAL_MEDIAN = 0.6745
+
+
+def lightness(image: np.ndarray) -> np.ndarray:
+    """CIE L* (0–100) of linear RGB (..., 3) as an sRGB display shows it (clipped to [0, 1])."""
+    y = np.clip(np.asarray(image, np.float64), 0.0, 1.0) @ np.array([0.2126, 0.7152, 0.0722])
+    return np.where(y > (6 / 29) ** 3, 116.0 * np.cbrt(y) - 16.0, y * (29 / 3) ** 3)
+
+
+def noise_level(a: np.ndarray, b: np.ndarray) -> float:
+    """The median standard error in L* of the mean of two independent images ``a`` and ``b``
+    (H, W, 3) of the same spp, over the pixels where they differ (where there is Monte-Carlo
+    noise at all: a constant background has none); 0 if none do."""
+    la, lb = lightness(a), lightness(b)
+    differ = np.any(a != b, axis=-1)
+    if not differ.any():
+        return 0.0
+    return float(np.median(np.abs(la - lb)[differ]) / 2.0 / HALF_NORMAL_MEDIAN)
+
+
+def adaptive_passes(scene, seed: int, *, progress=None, noise_l: float = NOISE_L, min_spp: int = AUTO_MIN_SPP,
+                    max_spp: int = AUTO_MAX_SPP) -> tuple[np.ndarray, int, float]:
+    """Passes of AUTO_PASS_SPP samples (pass k seeded ``seed * MAX_PASSES + k``) until the
+    noise of the mean (:func:`noise_level` of the even passes' mean against the odd ones') is
+    at most ``noise_l``, or ``max_spp`` samples; at least ``min_spp``. Returns (image (H, W, 3)
+    float32, the spp taken, the noise estimated)."""
+    from ..backend import mitsuba
+
+    mi = mitsuba()
+    halves = [None, None]
+    done, k, noise = 0, 0, float("inf")
+    while True:
+        image = np.array(mi.render(scene, spp=AUTO_PASS_SPP, seed=seed * MAX_PASSES + k), dtype=np.float64)
+        halves[k % 2] = image if halves[k % 2] is None else halves[k % 2] + image
+        done += AUTO_PASS_SPP
+        k += 1
+        if progress is not None:
+            progress(done, max_spp)
+        if k % 2 == 0 and done >= min_spp:
+            noise = noise_level(halves[0] / (k // 2), halves[1] / (k // 2))
+            if noise <= noise_l or done >= max_spp:
+                break
+    if progress is not None and done < max_spp:
+        progress(done, done)
+    return ((halves[0] + halves[1]) / k).astype(np.float32), done, noise
