@@ -190,7 +190,7 @@ register_section(Section("consistency", "Flat swatch against synth (rig both, 4Ã
 
 
 #: optional modules of the other renderers that register a section when imported
-PLUGIN_SECTIONS = ("weavecap.render.woven.bench", "weavecap.render.fold.bench")
+PLUGIN_SECTIONS = ("weavecap.render.woven.bench", "weavecap.render.fold.bench", "weavecap.render.agreement")
 
 
 def _load_plugin_sections() -> None:

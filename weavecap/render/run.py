@@ -1,4 +1,5 @@
-"""``weavecap render``'s stages in order: the fabric's surface model baked, placed on the mesh at
+"""``weavecap render``'s stages in order: the fabric's surface model baked (or read from the
+cache of earlier bakes, :mod:`.bake_cache`), placed on the mesh at
 its physical size, the scene framed and lit, rendered in the chosen mode, a fold term added.
 
 The mesh is read once (:func:`weavecap.render.mesh.load_mesh`) and may carry several fabrics in
@@ -22,7 +23,8 @@ from . import modes as _modes
 from .bsdf import Placement
 from .mesh import RenderMesh
 from .scene import Camera, Lighting, frame_camera, ground, lighting
-from .surface import SurfaceMaps, bake, noise_map
+from .bake_cache import cached_bake
+from .surface import SurfaceMaps, noise_map
 
 DEFAULT_PITCH_MM = 0.3  # a medium-weight woven fabric (about 33 yarns a centimetre)
 PASS_SPP = 16
@@ -153,7 +155,7 @@ def prepare_render(fabric: Fabric, mesh: RenderMesh, options: RenderOptions) -> 
     pixels_per_yarn = pitch / max(camera.pixel, 1e-12)
 
     t = time.perf_counter()
-    maps = bake(fabric, texels_per_yarn=texels)
+    maps, bake_cached = cached_bake(fabric, texels)
     noise = noise_map(fabric, seed=options.seed) if options.noise else None
     timings["bake"] = time.perf_counter() - t
 
@@ -162,19 +164,22 @@ def prepare_render(fabric: Fabric, mesh: RenderMesh, options: RenderOptions) -> 
     placement = Placement(repeat_size=(n_a * pitch, n_e * pitch), angle_deg=options.angle_deg, offset=options.offset)
     linear = pixels_per_yarn / maps.texels_per_yarn >= LINEAR_FROM
     bsdf = chosen.bsdf(fabric, maps, placement, noise, linear)
+    pass_spp = AUTO_PASS_SPP if options.spp is None else min(options.spp, PASS_SPP)
     scene_dict = {"type": "scene", "integrator": chosen.integrator(lights, options),
-                  "sensor": camera.sensor(AUTO_PASS_SPP if options.spp is None else min(options.spp, PASS_SPP), chosen.sampler), "garment": mesh.to_mitsuba(bsdf), **lights.emitters}
+                  "sensor": camera.sensor(pass_spp, chosen.sampler), "garment": mesh.to_mitsuba(bsdf), **lights.emitters}
     if options.ground:
         scene_dict["ground"] = ground(mesh.bounds)
     scene = mi.load_dict(scene_dict)
     timings["scene"] = time.perf_counter() - t
     info = {
         "mode": chosen.name, "spp": options.spp, "size": list(options.size), "camera": options.camera,
-        "view": list(options.view), "light": lights.name, "max_depth": options.max_depth if chosen.name != "direct" else 2,
+        "view": list(options.view), "light": lights.name,
+        "max_depth": options.max_depth if chosen.name == "reference" else 2,
         "pitch_mm": pitch_mm, "pitch_source": pitch_source,
         "repeat_mm": [n_a * pitch_mm, n_e * pitch_mm], "fabric_angle_deg": options.angle_deg,
         "fabric_offset": list(options.offset), "texels_per_yarn": maps.texels_per_yarn,
         "pixels_per_yarn": pixels_per_yarn, "texture_filter": "linear" if linear else "nearest",
+        "bake_cached": bake_cached,
         "noise": noise is not None, "fold": term.name if term is not None else None, "fold_detail": None,
         "seed": options.seed,
         "timings": timings, "notes": notes,
