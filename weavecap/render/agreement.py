@@ -41,8 +41,8 @@ from ..fixtures import path as fixture_path
 SIZE = (96, 72)
 #: pixels a repeat covers at the garment's nearest point (close: up to MAX_PITCH_MM)
 VIEWS = {"close": 40.0, "far": 0.5}
-TRUTH_SPP = 512  # direct, the one-bounce truth (two halves)
-PT_SPP = 512  # path tracing (two halves)
+TRUTH_SPP = 256  # direct, the one-bounce truth (two halves)
+PT_SPP = 256  # path tracing (two halves)
 PT_DEPTH = 16
 MAX_PITCH_MM = 100.0  # weavecap render's limit
 CHECK_SPP = 16  # direct's error at this spp sets its spp to the neural error
@@ -227,8 +227,9 @@ def measure(fabric, mesh, light: str, view: tuple, *, fold: bool, progress=lambd
     return out, images
 
 
-def run(quick: bool = False, progress=None, folder: Path | None = None) -> list[dict]:
-    """Every garment × light (``quick``: QUICK only); each row one (garment, light)."""
+def run(quick: bool = False, progress=None, folder: Path | None = None, on_row=None) -> list[dict]:
+    """Every garment × light (``quick``: QUICK only); each row one (garment, light); ``on_row``
+    is called with the rows so far after each (to keep them should the run be stopped)."""
     from .. import params
     from .mesh import load_mesh
     from .scene import LIGHTS
@@ -254,6 +255,8 @@ def run(quick: bool = False, progress=None, folder: Path | None = None) -> list[
                              "view": list(view), **row})
                 if folder is not None:
                     write_sheet(images, Path(folder) / f"{name}_{light_name.split('.')[0]}.png")
+                if on_row is not None:
+                    on_row(rows)
     return rows
 
 
@@ -328,13 +331,18 @@ def main(argv: list[str] | None = None) -> None:
     import json
     import sys
 
+    from ..io import atomic_write_text
+
     parser = argparse.ArgumentParser(prog="python -m weavecap.render.agreement")
     parser.add_argument("-o", "--output", type=Path, default=Path("bench-out/agreement"))
     parser.add_argument("--quick", action="store_true")
     args = parser.parse_args(argv)
     args.output.mkdir(parents=True, exist_ok=True)
-    rows = run(args.quick, lambda m: print(m, file=sys.stderr, flush=True), folder=args.output)
-    (args.output / "agreement.json").write_text(json.dumps({"rows": rows, "summary": summary(rows)}, indent=1) + "\n")
+    def keep(rows):
+        atomic_write_text(args.output / "agreement.json", json.dumps({"rows": rows, "summary": summary(rows)}, indent=1)
+                          + "\n")
+
+    rows = run(args.quick, lambda m: print(m, file=sys.stderr, flush=True), folder=args.output, on_row=keep)
     print(table(rows))
     print(json.dumps(summary(rows), indent=1))
 

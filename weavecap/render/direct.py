@@ -7,7 +7,10 @@ garment, light through the gaps — with less noise per sample:
 
 - every delta light (directional, point, spot) is lit at every camera sample, with a shadow
   ray through the gaps in the way (``weavecap_path`` picks one emitter a sample, by power: with
-  the studio's three lights and sky most samples miss most of the light);
+  the studio's three lights and sky most samples miss most of the light). The directional
+  lights are a table read in a loop (:func:`directional_lights`), so their number and
+  directions are data: every light of ``weavecap render`` with the same kind of sky shares
+  one kernel;
 - an environment (the ``sun``/``studio`` sky, a map) or any other emitter: one emitter sample
   and one BSDF sample a camera sample, combined by multiple importance sampling (power
   heuristic), their rays through the gaps;
@@ -25,6 +28,8 @@ methods, the neural one's included, are traced inline (:meth:`FabricPathIntegrat
 
 from __future__ import annotations
 
+import numpy as np
+
 from .integrator import AMBIENT, MAX_NULL, FabricPathIntegrator, _mis
 
 from ..model import bysdf as _bysdf
@@ -35,8 +40,30 @@ dr = _bysdf.dr
 MAX_LAYERS = MAX_NULL  # surfaces a camera ray sees through gaps (as weavecap_path's crossings)
 
 
+def directional_lights(scene) -> tuple[object, object, object]:
+    """The scene's directional emitters as a table: (unit directions towards them (Vector3f,
+    one entry each), their irradiance (Color3f), their count (UInt32)), all opaque. Evaluated
+    eagerly, before a render is traced."""
+    dirs, irradiance = [], []
+    it = dr.zeros(mi.Interaction3f)
+    for emitter in scene.emitters():
+        if emitter.class_name() == "DirectionalEmitter":
+            ds, weight = emitter.sample_direction(it, mi.Point2f(0.5, 0.5))
+            dirs.append([float(ds.d[k][0]) for k in range(3)])
+            irradiance.append([float(weight[k][0]) for k in range(3)])
+    table = np.asarray(dirs or [[0.0, 0.0, 1.0]], np.float32), np.asarray(irradiance or [[0.0] * 3], np.float32)
+    out = (mi.Vector3f(*(mi.Float(table[0][:, k]) for k in range(3))),
+           mi.Color3f(*(mi.Float(table[1][:, k]) for k in range(3))), mi.UInt32(len(dirs)))
+    dr.make_opaque(*out)
+    return out
+
+
 class DirectIntegrator(FabricPathIntegrator):
     """``{"type": "fabric_direct", "ambient": a, "background": b}`` (see the module docstring)."""
+
+    def render(self, scene, sensor=0, seed=0, spp=0, develop=True, evaluate=True):
+        self._directional = directional_lights(scene)  # eagerly, before sample() is traced
+        return mi.SamplingIntegrator.render(self, scene, sensor, seed, spp, develop, evaluate)
 
     def _escaped(self, scene, si, throughput, mask):
         """What a camera ray that left the scene brings: the backdrop (rigs), else the environment."""
@@ -80,8 +107,10 @@ class DirectIntegrator(FabricPathIntegrator):
         """The light every emitter sends off the hit ``si`` towards the camera (Color3f); a
         plain Python loop over the emitters, unrolled into the kernel."""
         ctx = mi.BSDFContext()
-        L = mi.Color3f(0.0)
+        L = self._directional_light(scene, si, bsdf, bsdfs, active)
         for emitter in scene.emitters():
+            if emitter.class_name() == "DirectionalEmitter":
+                continue  # in the table
             if not mi.has_flag(emitter.flags(), mi.EmitterFlags.Delta):
                 L += self._environment_light(scene, sampler, si, bsdf, bsdfs, emitter, active)
                 continue
@@ -92,7 +121,27 @@ class DirectIntegrator(FabricPathIntegrator):
             L += dr.select(lit, value * weight * seen, 0.0)
         if self.ambient > 0.0:
             own = active & self._call(bsdfs, bsdf, active, "has_attribute", AMBIENT)
-            L += self.ambient * dr.select(own, self._call(bsdfs, bsdf, own, "eval_attribute_3", AMBIENT, si), 0.0)
+            L += self.ambient_radiance * dr.select(own, self._call(bsdfs, bsdf, own, "eval_attribute_3", AMBIENT, si),
+                                                   0.0)
+        return L
+
+    def _directional_light(self, scene, si, bsdf, bsdfs, active):
+        """The light of the directional lights' table (:func:`directional_lights`) off the
+        hit (Color3f): a loop over its entries, one BSDF evaluation and shadow ray each."""
+        ctx = mi.BSDFContext()
+        directions, irradiance, count = self._directional
+
+        def body(k, L):
+            ds = dr.zeros(mi.DirectionSample3f)
+            ds.d = dr.gather(mi.Vector3f, directions, k)
+            ds.dist = dr.inf
+            ds.pdf = 1.0
+            seen = self.transmittance(scene, si, ds, active, bsdfs)
+            value = self._call(bsdfs, bsdf, active, "eval", ctx, si, si.to_local(ds.d))
+            return k + 1, L + dr.select(active, value * dr.gather(mi.Color3f, irradiance, k) * seen, 0.0)
+
+        _, L = dr.while_loop((mi.UInt32(0), mi.Color3f(0.0)), lambda k, L: k < count, body,
+                             labels=("light", "radiance"), label="directional lights")
         return L
 
     @dr.syntax

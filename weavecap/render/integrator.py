@@ -57,9 +57,11 @@ class FabricPathIntegrator(mi.SamplingIntegrator):
         self.max_depth = max_depth if max_depth >= 0 else 2**31 - 1
         self.rr_depth = int(props.get("rr_depth", 5))
         self.ambient = float(props.get("ambient", 0.0))
+        self.ambient_radiance = mi.Float(self.ambient)  # read from memory: every rig shares the kernels
         self.has_background = "background" in props
         background = props.get("background", 0.0)
         self.background = mi.Color3f(*background) if hasattr(background, "__len__") else mi.Color3f(float(background))
+        dr.make_opaque(self.ambient_radiance, self.background)
 
     @staticmethod
     def _bsdfs(scene) -> tuple[list, bool]:
@@ -180,7 +182,7 @@ class FabricPathIntegrator(mi.SamplingIntegrator):
                 own = self._call(bsdfs, bsdf, active_next, "has_attribute", AMBIENT)
                 albedo = dr.select(own, self._call(bsdfs, bsdf, active_next & own, "eval_attribute_3", AMBIENT, si),
                                    weight)
-                L += dr.select(active_next, beta * self.ambient * albedo, 0.0)
+                L += dr.select(active_next, beta * self.ambient_radiance * albedo, 0.0)
             beta = dr.select(active_next, beta * weight, beta)
             prev_si = dr.select(active_next, si, prev_si)
             prev_pdf = dr.select(active_next, bs.pdf, prev_pdf)

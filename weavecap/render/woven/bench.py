@@ -219,7 +219,8 @@ def _surface_bsdf(fabric, maps, linear: bool):
 def frame_costs(fabric: Fabric, maps, *, frames: int = TIMED_FRAMES) -> dict:
     """Warm FRAME-sized frame times of the close view, side by side: the neural renderer at
     1 spp, the reference at 1 and FRAME_SPP spp (its time is then ``a + b · spp``: a call's
-    fixed cost and a sample's), and a plain diffuse-textured direct render at 1 spp. Times
+    fixed cost and a sample's), ``--mode direct``'s integrator with the surface model at 1 spp,
+    and a plain diffuse-textured direct render at 1 spp. Times
     are taken at frame size, where the per-pixel work (not a call's overhead, which is most of
     a 96² render's time) decides them."""
     from .bsdf import NeuralSurfaceBSDF
@@ -230,6 +231,7 @@ def frame_costs(fabric: Fabric, maps, *, frames: int = TIMED_FRAMES) -> dict:
     cases = {"neural": (NeuralSurfaceBSDF(fabric, maps, placement_of(fabric)), neural_integrator(), NEURAL_SAMPLER, 1),
              "reference_1": (_surface_bsdf(fabric, maps, True), reference_integrator(), None, 1),
              f"reference_{FRAME_SPP}": (_surface_bsdf(fabric, maps, True), reference_integrator(), None, FRAME_SPP),
+             "direct": (_surface_bsdf(fabric, maps, True), neural_integrator(), None, 1),
              "plain": (plain_bsdf(maps, fabric), {"type": "direct"}, None, 1)}
     out = {"size": list(FRAME)}
     for name, (bsdf, integrator, sampler, spp) in cases.items():
@@ -241,6 +243,7 @@ def frame_costs(fabric: Fabric, maps, *, frames: int = TIMED_FRAMES) -> dict:
     out["reference_per_spp_s"] = max((tn - t1) / (FRAME_SPP - 1), 1e-9)
     out["reference_fixed_s"] = max(t1 - out["reference_per_spp_s"], 0.0)
     out["ratio_to_plain"] = out["neural_warm_s"] / out["plain_warm_s"]
+    out["direct_ratio_to_plain"] = out["direct_warm_s"] / out["plain_warm_s"]
     out["equal_time_spp"] = max(1, int((out["neural_warm_s"] - out["reference_fixed_s"]) / out["reference_per_spp_s"]))
     return out
 
@@ -403,7 +406,8 @@ def table(results: dict) -> str:
               f"median {c['speedup_at_equal_error_median']:.1f}x ('+': extrapolated past {REF_SPPS[-1]} spp)",
               f"{fr['size'][0]}x{fr['size'][1]} frame of {results['views'][0]['fabric']}, warm: neural "
               f"{fr['neural_warm_s']:.3f} s, plain diffuse direct {fr['plain_warm_s']:.3f} s (ratio "
-              f"{fr['ratio_to_plain']:.2f}; worst fabric {c['frame_ratio_to_plain']:.2f}); reference "
+              f"{fr['ratio_to_plain']:.2f}; worst fabric {c['frame_ratio_to_plain']:.2f}); --mode direct "
+              f"{fr['direct_warm_s']:.3f} s a sample (ratio {fr['direct_ratio_to_plain']:.2f}); reference "
               f"{fr['reference_fixed_s']:.3f} s + {fr['reference_per_spp_s']:.3f} s a sample (equal time: "
               f"{fr['equal_time_spp']} spp); cold neural {fr['neural_cold_s']:.2f} s, plain {fr['plain_cold_s']:.2f} s",
               f"weights {c['weights_mb']:.2f} MB; encoder {c['encoder_ms_max']:.1f} ms a fabric (max); "
