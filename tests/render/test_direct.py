@@ -71,11 +71,15 @@ def test_noise_level_is_the_standard_error_in_lightness():
     slope = 116.0 / 3.0 * y ** (-2.0 / 3.0)
     assert R.noise_level(a, b) == pytest.approx(slope * sigma / np.sqrt(2.0), rel=0.05)
     assert R.noise_level(a, a) == 0.0
+    where = np.zeros(a.shape[:2], bool)
+    where[:50] = True  # only these pixels count: the rest noise-free, like a background
+    a[50:], b[50:] = 0.5, 0.5
+    assert R.noise_level(a, b, where) == pytest.approx(slope * sigma / np.sqrt(2.0), rel=0.08)
 
 
 def test_the_default_samples_until_the_noise_is_below_what_was_asked(drape):
     """Adaptive sampling (the default): the image ends at or under the noise asked for, and
-    half that noise takes about four times the samples (noise ∝ 1/√spp)."""
+    twice that noise takes a quarter to a half of the samples (noise ∝ 1/√spp)."""
     fabric, mesh = drape
     options = R.RenderOptions(mode="direct", spp=None, size=(40, 30), view=(30.0, 20.0), light="sun", pitch_mm=1.0,
                               fold="off")
@@ -83,6 +87,6 @@ def test_the_default_samples_until_the_noise_is_below_what_was_asked(drape):
     assert R.AUTO_MIN_SPP <= info["spp"] < R.AUTO_MAX_SPP and info["noise_l"] <= R.NOISE_L
     scene = R.prepare_render(fabric, mesh, options).scene
     _, spp, _ = R.adaptive_passes(scene, 0, noise_l=R.NOISE_L)
-    _, spp_half, noise = R.adaptive_passes(scene, 0, noise_l=R.NOISE_L / 2)
-    assert spp == info["spp"] and noise <= R.NOISE_L / 2
-    assert 3 * spp <= spp_half <= 6 * spp
+    _, spp_double, noise = R.adaptive_passes(scene, 0, noise_l=2 * R.NOISE_L)
+    assert spp == info["spp"] and noise <= 2 * R.NOISE_L
+    assert 2 * spp_double <= spp <= 6 * spp_double  # measured: 96 and 32

@@ -73,16 +73,11 @@ def environment_map(path: Path, width: int = 128) -> Path:
 
 
 def garment_mask(scene) -> np.ndarray:
-    """(H, W) bool: pixels whose centre and 4-neighbours' centres hit a shape of ``scene``."""
-    from ..backend import mitsuba
+    """(H, W) bool: pixels whose centre and 4-neighbours' centres see a shape of ``scene``
+    (:func:`weavecap.render.run.surface_pixels`, less its edge)."""
+    from .run import surface_pixels
 
-    mi = mitsuba()
-    sensor = scene.sensors()[0]
-    w, h = (int(v) for v in sensor.film().crop_size())
-    y, x = np.mgrid[0:h, 0:w]
-    pos = mi.Point2f(((x + 0.5) / w).ravel().astype(np.float32), ((y + 0.5) / h).ravel().astype(np.float32))
-    ray, _ = sensor.sample_ray(0.0, 0.5, pos, mi.Point2f(0.5, 0.5))
-    hit = np.array(scene.ray_intersect(ray).is_valid()).reshape(h, w)
+    hit = surface_pixels(scene)
     inner = hit.copy()
     inner[1:] &= hit[:-1]
     inner[:-1] &= hit[1:]

@@ -261,26 +261,41 @@ def lightness(image: np.ndarray) -> np.ndarray:
     return np.where(y > (6 / 29) ** 3, 116.0 * np.cbrt(y) - 16.0, y * (29 / 3) ** 3)
 
 
-def noise_level(a: np.ndarray, b: np.ndarray) -> float:
+def noise_level(a: np.ndarray, b: np.ndarray, where: np.ndarray | None = None) -> float:
     """The median standard error in L* of the mean of two independent images ``a`` and ``b``
-    (H, W, 3) of the same spp, over the pixels where they differ (where there is Monte-Carlo
-    noise at all: a constant background has none); 0 if none do."""
+    (H, W, 3) of the same spp, over the pixels ``where`` ((H, W) bool; default all); 0 if none."""
     la, lb = lightness(a), lightness(b)
-    differ = np.any(a != b, axis=-1)
-    if not differ.any():
+    where = np.ones(la.shape, bool) if where is None else where
+    if not where.any():
         return 0.0
-    return float(np.median(np.abs(la - lb)[differ]) / 2.0 / HALF_NORMAL_MEDIAN)
+    return float(np.median(np.abs(la - lb)[where]) / 2.0 / HALF_NORMAL_MEDIAN)
+
+
+def surface_pixels(scene) -> np.ndarray:
+    """(H, W) bool: the pixels whose centre sees a shape of ``scene`` (one camera ray each) —
+    where the noise is; the background (black, a backdrop or an environment seen directly) has
+    none worth counting."""
+    from ..backend import mitsuba
+
+    mi = mitsuba()
+    sensor = scene.sensors()[0]
+    w, h = (int(v) for v in sensor.film().crop_size())
+    y, x = np.mgrid[0:h, 0:w]
+    pos = mi.Point2f(((x + 0.5) / w).ravel().astype(np.float32), ((y + 0.5) / h).ravel().astype(np.float32))
+    ray, _ = sensor.sample_ray(0.0, 0.5, pos, mi.Point2f(0.5, 0.5))
+    return np.array(scene.ray_intersect(ray).is_valid()).reshape(h, w)
 
 
 def adaptive_passes(scene, seed: int, *, progress=None, noise_l: float = NOISE_L, min_spp: int = AUTO_MIN_SPP,
                     max_spp: int = AUTO_MAX_SPP) -> tuple[np.ndarray, int, float]:
     """Passes of AUTO_PASS_SPP samples (pass k seeded ``seed * MAX_PASSES + k``) until the
-    noise of the mean (:func:`noise_level` of the even passes' mean against the odd ones') is
-    at most ``noise_l``, or ``max_spp`` samples; at least ``min_spp``. Returns (image (H, W, 3)
-    float32, the spp taken, the noise estimated)."""
+    noise of the mean (:func:`noise_level` of the even passes' mean against the odd ones', over
+    the :func:`surface_pixels`) is at most ``noise_l``, or ``max_spp`` samples; at least
+    ``min_spp``. Returns (image (H, W, 3) float32, the spp taken, the noise estimated)."""
     from ..backend import mitsuba
 
     mi = mitsuba()
+    where = surface_pixels(scene)
     halves = [None, None]
     done, k, noise = 0, 0, float("inf")
     while True:
@@ -291,7 +306,7 @@ def adaptive_passes(scene, seed: int, *, progress=None, noise_l: float = NOISE_L
         if progress is not None:
             progress(done, max_spp)
         if k % 2 == 0 and done >= min_spp:
-            noise = noise_level(halves[0] / (k // 2), halves[1] / (k // 2))
+            noise = noise_level(halves[0] / (k // 2), halves[1] / (k // 2), where)
             if noise <= noise_l or done >= max_spp:
                 break
     if progress is not None and done < max_spp:
