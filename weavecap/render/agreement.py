@@ -213,7 +213,9 @@ def measure(fabric, mesh, light: str, view: tuple, *, fold: bool, progress=lambd
             with_fold = tuple(h + fold_image for h in truth_h)
             off, on = biased_rmse(truth_h, pt_h, mask), biased_rmse(with_fold, pt_h, mask)
             pt = 0.5 * (pt_h[0] + pt_h[1])
-            out["fold"] = {"rmse_off": off, "rmse_on": on, "gain": off / max(on, 1e-12), "seconds": fold_s,
+            # None: both within the noise; "inf": on within it, off not
+            gain = off / on if on > 0 else (None if off == 0 else "inf")
+            out["fold"] = {"rmse_off": off, "rmse_on": on, "gain": gain, "seconds": fold_s,
                            "pt_mean": pt[mask].mean(axis=0).tolist(), "off_mean": truth[mask].mean(axis=0).tolist(),
                            "on_mean": (truth + fold_image)[mask].mean(axis=0).tolist(),
                            "vertices": detail["vertices"]["computed"] if detail else 0}
@@ -273,19 +275,30 @@ def write_sheet(images: dict, path: Path) -> None:
 def table(rows: list[dict]) -> str:
     """The markdown table: one line per garment, light and view."""
     lines = ["| garment | light | fabric | view (px/repeat) | neural / direct mean (worst channel) | ΔE2000 median | "
-             "direct time to neural error / neural time | default direct: spp, ΔE2000, s | fold: RMSE vs PT off → on "
-             "(gain) |", "|---|---|---|---|---|---|---|---|---|"]
+             "direct time to neural error / neural time | default direct: spp, ΔE2000, s | fold: RMSE vs PT "
+             "off → on (gain) |", "|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         for view, v in r["views"].items():
             fold = r.get("fold")
-            fold_cell = (f"{fold['rmse_off']:.5f} → {fold['rmse_on']:.5f} ({fold['gain']:.2f}×)"
-                         if fold and view == "far" else "")
+            fold_cell = (f"{fold['rmse_off']:.5f} → {fold['rmse_on']:.5f} ({_gain(fold)})" if fold and view == "far"
+                         else "")
             n, a = v["neural"], v["auto"]
             lines.append(f"| {r['garment']}{' (deep)' if r['deep_folds'] else ''} | {r['light']} | {r['fabric']} | "
                          f"{view} ({v['pixels_per_repeat']:.2g}) | {n['ratio']:.3f} ({n['worst_channel']:.3f}) | "
                          f"{n['delta_e_median']:.2f} | {v['speedup_neural']:.2f}× | {a['spp']}, "
                          f"{a['delta_e_median']:.2f}, {a['seconds']:.1f} | {fold_cell} |")
     return "\n".join(lines)
+
+
+def _gain(fold: dict) -> str:
+    g = fold["gain"]
+    return "both within the noise" if g is None else ("∞" if g == "inf" else f"{g:.2f}×")
+
+
+def _gain_at_least(fold: dict, least: float) -> bool:
+    """Whether the fold term's gain is at least ``least`` (both within the noise: not worse)."""
+    g = fold["gain"]
+    return (least <= 1.0) if g is None else (g == "inf" or g >= least)
 
 
 def summary(rows: list[dict]) -> dict:
@@ -296,8 +309,8 @@ def summary(rows: list[dict]) -> dict:
     folds = [r["fold"] for r in rows if "fold" in r]
     deep = [r["fold"] for r in rows if "fold" in r and r["deep_folds"]]
     return {"neural_within_goal": f"{sum(neural_ok)} of {len(neural_ok)}",
-            "fold_never_worse": f"{sum(f['gain'] >= 1.0 for f in folds)} of {len(folds)}",
-            "fold_deep_gain_1_5": f"{sum(f['gain'] >= FOLD_GAIN_GOAL for f in deep)} of {len(deep)}",
+            "fold_never_worse": f"{sum(_gain_at_least(f, 1.0) for f in folds)} of {len(folds)}",
+            "fold_deep_gain_1_5": f"{sum(_gain_at_least(f, FOLD_GAIN_GOAL) for f in deep)} of {len(deep)}",
             "speedup_median": float(np.median([v["speedup_neural"] for _, v in views])) if views else None}
 
 

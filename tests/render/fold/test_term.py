@@ -11,7 +11,7 @@ from click.testing import CliRunner
 
 from weavecap import params
 from weavecap.fixtures import path as fixture_path
-from weavecap.render import modes
+from weavecap.render import garments, modes
 from weavecap.render.fold import bench, term
 from weavecap.render.mesh import load_mesh
 from weavecap.render.run import RenderOptions, render_fabric
@@ -173,7 +173,7 @@ def test_the_term_on_a_vertex_subset_matches_every_vertexs(fabric, tmp_path):
     from weavecap.render.run import prepare_render
 
     path = tmp_path / "crumpled.obj"
-    path.write_text(bench.crumpled_sheet(cells=80).obj_text("test"))
+    path.write_text(garments.crumpled_sheet(cells=80).obj_text("test"))
     mesh = load_mesh(path)
     scene = prepare_render(fabric, mesh, RenderOptions(mode="direct", spp=1, size=(96, 54), light="sun",
                                                        view=bench.UNSEEN["crumpled"])).scene

@@ -28,7 +28,7 @@ seconds per spp into our seconds, and its render at them is timed too (recorded 
 The rows keep every timing. *Seen* meshes are the *Seen* meshes are the
 fixture meshes of the shapes trained on (at the fixtures' own, coarser tessellation);
 *unseen*: the towel of ``../shared/meshes`` (without the head under it) and
-:func:`crumpled_sheet`, folds in random directions, made here.
+:func:`weavecap.render.garments.crumpled_sheet`, folds in random directions.
 
 The frame (:func:`frame_time`), on the towel and the skirt: one 1280×720 direct render at
 :data:`SPP`, without and with the fold term, in one process (as a user runs it, compiles and
@@ -51,6 +51,7 @@ import numpy as np
 
 from ...fixtures import path as fixture_path
 from ..bench import SHARED_MESHES
+from ..garments import crumpled_sheet
 
 FABRIC = fixture_path("params", "satin_5.json")
 LIGHT = "sun"
@@ -68,27 +69,6 @@ AGREE = 0.10  # an equal-time race's timings are steady when two in a row agree 
 ROUNDS = 5  # timed rounds at most (then the median)
 
 
-def crumpled_sheet(size: float = 0.3, cells: int = 120, *, seed: int = 7):
-    """A sheet with folds in random directions (an unseen mesh): z = Σ_k A_k sin(2π x_k/λ_k) g_k,
-    eight ridges of random orientation, wavelength 3–7 cm and amplitude 2–7 mm, each under a
-    Gaussian window of 5–9 cm at a random place. Metres, faces counter-clockwise from +z."""
-    from ..shapes import Shape, _grid_faces
-
-    rng = np.random.default_rng(seed)
-    n = cells + 1
-    x, y = np.meshgrid(np.linspace(-size / 2, size / 2, n), np.linspace(-size / 2, size / 2, n))
-    z = np.zeros_like(x)
-    for _ in range(8):
-        theta, lam = rng.uniform(0, np.pi), rng.uniform(0.03, 0.07)
-        amp, width = rng.uniform(0.002, 0.007), rng.uniform(0.05, 0.09)
-        cx, cy = rng.uniform(-size / 3, size / 3, 2)
-        along = (x - cx) * np.cos(theta) + (y - cy) * np.sin(theta)
-        z += amp * np.sin(2 * np.pi * along / lam) * np.exp(-((x - cx) ** 2 + (y - cy) ** 2) / (2 * width**2))
-    positions = np.stack([x.ravel(), y.ravel(), z.ravel()], axis=1)
-    return Shape("crumpled", positions, _grid_faces(n, n), positions[:, :2] + size / 2,
-                 f"crumpled sheet {size * 100:g} cm, eight random folds (seed {seed})")
-
-
 def bench_meshes(quick: bool, folder: Path) -> list[tuple[str, Path, tuple, bool]]:
     """(name, path, view, seen) of every mesh measured."""
     out = []
@@ -99,7 +79,7 @@ def bench_meshes(quick: bool, folder: Path) -> list[tuple[str, Path, tuple, bool
     if towel.is_file() and not quick:
         out.append(("towel", towel.resolve(), UNSEEN["towel"], False))
     path = folder / "crumpled.obj"
-    path.write_text(crumpled_sheet().obj_text("weavecap.render.fold.bench.crumpled_sheet()"))
+    path.write_text(crumpled_sheet().obj_text("weavecap.render.garments.crumpled_sheet()"))
     out.append(("crumpled", path, UNSEEN["crumpled"], False))
     return out
 
