@@ -37,8 +37,8 @@ def _offset(ctx, param, value: str) -> tuple[float, float]:
 def _mode_help() -> str:
     return ("direct: direct lighting (one bounce) of the surface model, every light at every sample, samples "
             "until the noise is below what shows; reference: path tracing of the surface model; neural: the "
-            "woven neural BSDF at each pixel's footprint, direct light (Chen et al. 2024; faster close up, its "
-            "colours a few percent off: docs/render.md).")
+            "woven neural BSDF at each pixel's footprint, direct light (Chen et al. 2024; a few samples a pixel at "
+            "any distance, its colours a few percent darker: docs/woven.md).")
 
 
 @click.command(context_settings={"max_content_width": 100})
