@@ -24,7 +24,9 @@ pixel):
 The garment's pixels are those whose centre and four neighbours' centres see the mesh
 (silhouettes left out: the neural renderer samples pixel centres, direct the pixel's area).
 Each garment gets one fabric of :data:`FABRICS` in turn. ``python -m weavecap.render.agreement
--o DIR`` also writes, per garment and light, direct | neural | |difference| × 4 side by side.
+-o DIR`` also writes, per garment and light, direct | neural | |difference| × 4 side by side,
+and keeps the reference images under DIR/references (a run with them there renders only what
+is measured against them: delete them when the surface model, a garment or a setting changes).
 """
 
 from __future__ import annotations
@@ -149,14 +151,29 @@ def _pitch_for(fabric, mesh, options, pixels_per_repeat: float) -> float:
     return min(1000.0 * pixels_per_repeat * camera.pixel / max(fabric.shape), MAX_PITCH_MM)
 
 
-def _halves(scene, spp: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
+def _halves(scene, spp: int, seed: int, keep: Path | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Two renders of ``spp`` / 2 samples, seeds ``seed`` and ``seed + 1``; read from ``keep``
+    (an ``.npz``) when it holds them, else written there (the references cost most of the
+    bench and do not change when a renderer under test does)."""
+    from ..io import atomic_path
     from .run import render_passes
 
-    return tuple(render_passes(scene, spp // 2, seed + k).astype(np.float64) for k in (0, 1))
+    if keep is not None and keep.is_file():
+        with np.load(keep, allow_pickle=False) as data:
+            return data["a"], data["b"]
+    out = tuple(render_passes(scene, spp // 2, seed + k).astype(np.float64) for k in (0, 1))
+    if keep is not None:
+        keep.parent.mkdir(parents=True, exist_ok=True)
+        with atomic_path(keep) as tmp:
+            with open(tmp, "wb") as fh:
+                np.savez(fh, a=out[0], b=out[1])
+    return out
 
 
-def measure(fabric, mesh, light: str, view: tuple, *, fold: bool, progress=lambda m: None) -> dict:
-    """Every figure of one garment and light (see the module docstring)."""
+def measure(fabric, mesh, light: str, view: tuple, *, fold: bool, progress=lambda m: None,
+            keep: Path | None = None) -> dict:
+    """Every figure of one garment and light (see the module docstring); ``keep``: a folder
+    where the references (direct's truth, path tracing) are kept for a later run."""
     from dataclasses import replace
 
     from . import modes
@@ -170,7 +187,7 @@ def measure(fabric, mesh, light: str, view: tuple, *, fold: bool, progress=lambd
         direct = prepare_render(fabric, mesh, options)
         mask = garment_mask(direct.scene)
         progress(f"truth: direct, {TRUTH_SPP} spp")
-        truth_h = _halves(direct.scene, TRUTH_SPP, 1)
+        truth_h = _halves(direct.scene, TRUTH_SPP, 1, keep and keep / f"{name}_direct_{TRUTH_SPP}.npz")
         truth = 0.5 * (truth_h[0] + truth_h[1])
         render_passes(direct.scene, CHECK_SPP, 7)  # compiled before it is timed
         t = time.perf_counter()
@@ -202,7 +219,7 @@ def measure(fabric, mesh, light: str, view: tuple, *, fold: bool, progress=lambd
         if name == "far" and fold:
             progress(f"path tracing, {PT_SPP} spp")
             reference = prepare_render(fabric, mesh, replace(options, mode="reference", max_depth=PT_DEPTH, spp=16))
-            pt_h = _halves(reference.scene, PT_SPP, 11)
+            pt_h = _halves(reference.scene, PT_SPP, 11, keep and keep / f"{name}_pt_{PT_DEPTH}_{PT_SPP}.npz")
             term = modes.fold_term("on", modes.mode("direct"), mesh)
             context = RenderContext(direct.scene, mesh, fabric, direct.maps, direct.camera, direct.lighting, options,
                                     np.zeros_like(truth, dtype=np.float32))
@@ -246,7 +263,8 @@ def run(quick: bool = False, progress=None, folder: Path | None = None, on_row=N
                 if quick and (name, light_name) not in QUICK:
                     continue
                 say(f"render bench: agreement, {name} under {light_name} ({fabric_name}) ...")
-                row, images = measure(fabric, mesh, light, view, fold=True,
+                keep = Path(folder) / "references" / f"{name}_{light_name.split('.')[0]}" if folder else None
+                row, images = measure(fabric, mesh, light, view, fold=True, keep=keep,
                                       progress=lambda m: say(f"render bench: agreement, {name}, {light_name}: {m}"))
                 rows.append({"garment": name, "light": light_name, "fabric": fabric_name, "deep_folds": deep,
                              "view": list(view), **row})

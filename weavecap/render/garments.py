@@ -6,8 +6,8 @@ made here, with other profiles, depths and tessellations:
 
 - :func:`pleated_skirt`: a skirt of knife pleats — a cone whose radius zig-zags around, the
   pleats' inner walls facing each other (deep, narrow folds);
-- :func:`pleated_curtain`: a curtain hanging in deep rounded pleats (pinch pleats at the top,
-  opening downwards);
+- :func:`pleated_curtain`: a curtain hanging in deep, narrow rounded pleats (pinched at the top,
+  opening downwards; 60 mm deep, 36 mm apart);
 - :func:`swag_drape`: a cloth hung from two pins, sagging between them, folds radiating
   from the pins;
 - :func:`sleeve`: a tube bent at the elbow, with ring wrinkles on the inside of the bend;
@@ -59,7 +59,7 @@ def pleated_skirt(*, waist: float = 0.15, hem: float = 0.26, length: float = 0.5
                  f"knife-pleated skirt, {pleats} pleats {depth * 1000:g} mm deep, hem {hem * 200:g} cm across")
 
 
-def pleated_curtain(*, width: float = 0.5, height: float = 0.6, pleats: int = 7, depth: float = 0.05,
+def pleated_curtain(*, width: float = 0.5, height: float = 0.6, pleats: int = 14, depth: float = 0.06,
                     samples_per_pleat: int = 24, rows: int = 31, name: str = "pleated_curtain") -> Shape:
     """A curtain hanging in ``pleats`` deep pleats facing +z: the profile a rounded zig-zag of
     ``depth`` (front to back), pinched to a third of it at the top and full from half the
