@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from weavecap.render import garments, shapes
+from weavecap.render import garments
 from weavecap.render.mesh import load_mesh
 
 from .test_shapes import uv_area_ratio
@@ -39,8 +39,6 @@ def test_pleats_are_as_deep_as_asked():
     curtain = garments.pleated_curtain(depth=0.06)
     bottom = curtain.positions[curtain.positions[:, 1] < -0.29]
     assert np.ptp(bottom[:, 2]) == pytest.approx(0.06, rel=0.02)
-    sheet = shapes.pleats(depth=0.04, period=0.025)
-    assert np.ptp(sheet.positions[:, 2]) == pytest.approx(0.04, rel=0.02)
     skirt = garments.pleated_skirt(depth=0.035)
     hem = skirt.positions[skirt.positions[:, 1] < -0.49]
     radius = np.hypot(hem[:, 0], hem[:, 2])

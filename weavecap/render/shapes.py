@@ -1,9 +1,8 @@
 """Procedural cloth shapes: the project's own test meshes for ``weavecap render``.
 
 The fold-shape study of Son et al. (supplement §3.4: planar sheets with sinusoidal folds of
-increasing amplitude, and non-sinusoidal horseshoe folds of different opening widths), plus
-pleats (folds deeper than wide), a flat swatch, a flared skirt and a square cloth draped over
-a sphere. ``fixtures/make_meshes.py``
+increasing amplitude, and non-sinusoidal horseshoe folds of different opening widths), plus a
+flat swatch, a flared skirt and a square cloth draped over a sphere. ``fixtures/make_meshes.py``
 writes the fixture set (:data:`FIXTURES`) to ``fixtures/meshes/``; the fold renderer's training
 data calls these functions with other parameters.
 
@@ -152,19 +151,6 @@ def wave(*, amplitude: float = 0.012, wavelength: float = 0.05, meander: float =
         uv.append(np.stack([np.linspace(-length / 2, length / 2, nu), np.full(nu, yy)], axis=1))
     return Shape(name, np.concatenate(positions), _grid_faces(nu, rows), np.concatenate(uv),
                  f"meandering folds, amplitude {amplitude * 1000:g} mm, wavelength {wavelength * 1000:g} mm")
-
-
-def pleats(*, depth: float, period: float, width: float = 0.2, height: float = 0.2, sharpness: float = 0.8,
-           samples_per_pleat: int = 32, rows: int = 41, name: str | None = None) -> Shape:
-    """Parallel pleats: a sheet whose profile zig-zags ``depth`` front to back every ``period``
-    (a triangle wave, its corners rounded by 1 − ``sharpness``; 1: knife-sharp), ridges along
-    y — folds deeper than they are wide, which sines of the same depth never are."""
-    x = np.linspace(0.0, width, max(64, int(width / period * samples_per_pleat * 8)))
-    phase = x / period
-    tri = 2.0 * np.abs(2.0 * (phase - np.floor(phase + 0.5))) - 1.0
-    profile = np.stack([x, 0.5 * depth * ((1.0 - sharpness) * -np.cos(2 * math.pi * phase) + sharpness * tri)], axis=1)
-    return _profile_sheet(name or "pleats", profile, height, int(round(width / period * samples_per_pleat)) + 1, rows,
-                          f"pleats, {depth * 1000:g} mm deep every {period * 1000:g} mm")
 
 
 def skirt(*, waist: float = 0.14, hem: float = 0.32, length: float = 0.55, folds: int = 10,

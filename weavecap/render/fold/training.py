@@ -103,8 +103,7 @@ class TrainConfig:
 def fold_suite() -> list[FoldMesh]:
     """The meshes the BLIDF is trained on: :mod:`weavecap.render.shapes`' fold study (sines of
     three amplitudes and a finer one, meandering waves, horseshoes wide and narrow, a skirt, a
-    drape over a sphere) and two pleated sheets (40 mm deep every 25 mm; 30 mm deep every 50 mm,
-    rounder, on a larger sheet), tessellated finer than the fixtures (≈ 2–5 mm edges) so that a
+    drape over a sphere), tessellated finer than the fixtures (≈ 2–5 mm edges) so that a
     neighbourhood of r holds enough vertices."""
     from .. import shapes
 
@@ -116,9 +115,7 @@ def fold_suite() -> list[FoldMesh]:
             shapes.horseshoe(opening=0.04, samples=193, rows=41, name="horseshoe_wide"),
             shapes.horseshoe(opening=0.015, samples=193, rows=41, name="horseshoe_narrow"),
             shapes.skirt(around=161, rows=41),
-            shapes.drape_over_sphere(cells=64),
-            shapes.pleats(depth=0.04, period=0.025, name="pleats_deep"),
-            shapes.pleats(depth=0.03, period=0.05, width=0.4, height=0.3, sharpness=0.5, rows=61, name="pleats_wide")]
+            shapes.drape_over_sphere(cells=64)]
     return [FoldMesh(s.name, s) for s in made]
 
 
