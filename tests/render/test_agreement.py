@@ -1,5 +1,5 @@
 """The renderers on a garment no network saw, under every shipped light and an environment map
-(weavecap.render.agreement): the default (direct, adaptive spp) is right, the neural renderer
+(weavecap.bench.agreement): the default (direct, adaptive spp) is right, the neural renderer
 within what was measured of it, and the bench's own measures are right on known images."""
 
 from __future__ import annotations
@@ -9,7 +9,8 @@ import pytest
 
 from weavecap import params
 from weavecap.fixtures import path as fixture_path
-from weavecap.render import agreement, garments
+from weavecap.bench import agreement
+from weavecap.render import garments
 from weavecap.render.mesh import load_mesh
 from weavecap.render.run import RenderOptions, prepare_render, render_fabric
 from weavecap.render.scene import LIGHTS

@@ -12,7 +12,8 @@ from click.testing import CliRunner
 from weavecap import params
 from weavecap.fixtures import path as fixture_path
 from weavecap.render import garments, modes
-from weavecap.render.fold import bench, term
+from weavecap.bench import fold as bench
+from weavecap.render.fold import term
 from weavecap.render.mesh import load_mesh
 from weavecap.render.run import RenderOptions, render_fabric
 

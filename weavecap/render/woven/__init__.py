@@ -13,7 +13,7 @@ split into colour-free channels the colours multiply (so colours change without 
 - :mod:`.infer` (encoder once, Dr.Jit decoder) and :mod:`.bsdf` (the Mitsuba BSDF at the
   footprint) render with it, through the direct-light integrator of
   :mod:`weavecap.render.direct` (its methods traced inline; the camera at pixel centres);
-- :mod:`.bench` is its section of ``weavecap bench --render``.
+- :mod:`weavecap.bench.woven` is its section of ``weavecap bench --render``.
 
 Importing this package registers the ``neural`` mode of ``weavecap render``
 (:mod:`weavecap.render.modes`); it loads no Mitsuba, Dr.Jit or PyTorch until a render asks.

@@ -49,9 +49,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ...fixtures import path as fixture_path
-from ..bench import SHARED_MESHES
-from ..garments import crumpled_sheet
+from ..fixtures import path as fixture_path
+from .render import SHARED_MESHES
+from ..render.garments import crumpled_sheet
 
 FABRIC = fixture_path("params", "satin_5.json")
 LIGHT = "sun"
@@ -86,8 +86,8 @@ def bench_meshes(quick: bool, folder: Path) -> list[tuple[str, Path, tuple, bool
 
 def _localpt_mode(radius: float):
     """A render mode of the surface model through LocalPT's local inter-reflection alone."""
-    from ..modes import MODES, Mode
-    from . import localpt  # noqa: F401  (registers "localpt")
+    from ..render.modes import MODES, Mode
+    from ..render.fold import localpt  # noqa: F401  (registers "localpt")
 
     return Mode("fold-localpt", "LocalPT, local inter-reflection only", bsdf=MODES["direct"].bsdf,
                 integrator=lambda lighting, options: {"type": "localpt", "radius": float(radius), "direct": False,
@@ -96,8 +96,8 @@ def _localpt_mode(radius: float):
 
 def _localpt_scene(fabric, mesh, options, radius: float):
     """``weavecap render``'s scene of ``options`` with LocalPT's local inter-reflection as its integrator."""
-    from .. import modes
-    from ..run import prepare_render
+    from ..render import modes
+    from ..render.run import prepare_render
 
     modes.register_mode(_localpt_mode(radius))
     try:
@@ -138,7 +138,7 @@ def _in_time(budget: float, scenes, seconds_per_spp: float, seed: int, announce=
     (H, W, 3) float64, spp, seconds taken). A last pass of fewer samples than ``run.PASS_SPP``
     is another kernel: it is compiled before the render is timed (crumpled sheet, 69 spp, 1.3 s
     cold against 0.4 s warm)."""
-    from ..run import PASS_SPP, render_passes
+    from ..render.run import PASS_SPP, render_passes
 
     spp = max(1, int(budget / seconds_per_spp))
     announce(spp)
@@ -158,8 +158,8 @@ def race(scene, local_scene, mesh, seed: int, progress=lambda m: None, label: st
     in the fold term's time for the local light alone. Returns the images (ours: direct at SPP
     and the fold term, seeds ``seed`` and 1; LocalPT's: direct + local, local alone, seeds
     ``seed`` + 1, + 2), the spp, and every timing."""
-    from ..run import render_passes
-    from . import term
+    from ..render.run import render_passes
+    from ..render.fold import term
 
     seconds, timings, out = steady_times({
         "direct": lambda: render_passes(scene, SPP, seed),
@@ -183,7 +183,7 @@ def _race_cells(r: dict) -> dict:
 
 
 def _render(fabric, mesh, options):
-    from ..run import render_fabric
+    from ..render.run import render_fabric
 
     t = time.perf_counter()
     result = render_fabric(fabric, mesh, options)
@@ -211,11 +211,11 @@ def rmse(a: np.ndarray, b: np.ndarray, mask: np.ndarray) -> float:
 
 def measure_mesh(name: str, path: Path, view, seen: bool, *, folder: Path, progress=None) -> dict:
     """Every image and error of one mesh (see the module docstring)."""
-    from ... import params
-    from ..mesh import load_mesh
-    from ..run import RenderOptions, prepare_render, render_passes
-    from . import term
-    from .descriptors import cached_descriptors
+    from .. import params
+    from ..render.mesh import load_mesh
+    from ..render.run import RenderOptions, prepare_render, render_passes
+    from ..render.fold import term
+    from ..render.fold.descriptors import cached_descriptors
 
     say = progress or (lambda m: None)
     fabric = params.load(FABRIC)
@@ -279,10 +279,10 @@ def frame_time(name: str, path: Path, view, *, progress=None) -> dict:
     ``render_fabric`` in this process as a user runs it (compiles and all, after a 16-spp frame
     of each); then, at that size, direct + fold against LocalPT at equal time (:func:`race`, warm
     and steady), both against direct + LocalPT's local light at :data:`FRAME_REF_SPP`."""
-    from ... import params
-    from ..mesh import load_mesh
-    from ..run import PASS_SPP, RenderOptions, prepare_render, render_passes
-    from .descriptors import cached_descriptors
+    from .. import params
+    from ..render.mesh import load_mesh
+    from ..render.run import PASS_SPP, RenderOptions, prepare_render, render_passes
+    from ..render.fold.descriptors import cached_descriptors
 
     fabric = params.load(FABRIC)
     mesh = load_mesh(path)
@@ -426,7 +426,7 @@ def _local_cells(q: dict) -> str:
 
 def _register() -> None:
     """Add this section to ``weavecap bench --render`` (which imports this module)."""
-    from ..bench import Section, register_section
+    from .render import Section, register_section
 
     register_section(Section("fold", f"Fold renderer against LocalPT and PT ({SIZE[0]}×{SIZE[1]}, {REF_SPP} spp, "
                                      f"{LIGHT} light)", run, table))
@@ -441,8 +441,8 @@ def picture(folder: Path, names: list[str], out: Path) -> Path:
     direct light, too little to see beside it. Labelled."""
     from PIL import Image, ImageDraw
 
-    from ...io import atomic_path
-    from ...photo import linear_to_srgb
+    from ..io import atomic_path
+    from ..photo import linear_to_srgb
 
     labels = ("direct", "direct + fold", "LocalPT", "PT", "fold term", "LocalPT local")
     rows = [np.load(Path(folder) / f"{name}.npz") for name in names]
@@ -468,22 +468,22 @@ def picture(folder: Path, names: list[str], out: Path) -> Path:
     return out
 
 
-USAGE = """usage: python -m weavecap.render.fold.bench OUT [--quick]
+USAGE = """usage: python -m weavecap.bench.fold OUT [--quick]
 
 The fold renderer's section of `weavecap bench --render` alone: every mesh against LocalPT and PT
 at 192x108 (4096 spp), equal time, and the 1280x720 frames; writes OUT/fold.json, OUT/fold.md,
 OUT/fold.png and the images under OUT/images. --quick: one seen and one unseen mesh.
 
-example: nice -n 5 python -m weavecap.render.fold.bench /tmp/fold-bench"""
+example: nice -n 5 python -m weavecap.bench.fold /tmp/fold-bench"""
 
 
 def main(argv: list[str] | None = None) -> None:
-    """``python -m weavecap.render.fold.bench OUT [--quick]``: this section alone, as ``weavecap
+    """``python -m weavecap.bench.fold OUT [--quick]``: this section alone, as ``weavecap
     bench --render`` runs it; writes OUT/fold.json, OUT/fold.md and OUT/fold.png."""
     import json
     import sys
 
-    from ...io import atomic_write_text
+    from ..io import atomic_write_text
 
     args = list(sys.argv[1:] if argv is None else argv)
     quick = "--quick" in args

@@ -23,7 +23,7 @@ pixel):
 
 The garment's pixels are those whose centre and four neighbours' centres see the mesh
 (silhouettes left out: the neural renderer samples pixel centres, direct the pixel's area).
-Each garment gets one fabric of :data:`FABRICS` in turn. ``python -m weavecap.render.agreement
+Each garment gets one fabric of :data:`FABRICS` in turn. ``python -m weavecap.bench.agreement
 -o DIR`` also writes, per garment and light, direct | neural | |difference| × 4 side by side,
 and keeps the reference images under DIR/references (a run with them there renders only what
 is measured against them: delete them when the surface model, a garment or a setting changes).
@@ -77,7 +77,7 @@ def environment_map(path: Path, width: int = 128) -> Path:
 def garment_mask(scene) -> np.ndarray:
     """(H, W) bool: pixels whose centre and 4-neighbours' centres see a shape of ``scene``
     (:func:`weavecap.render.run.surface_pixels`, less its edge)."""
-    from .run import surface_pixels
+    from ..render.run import surface_pixels
 
     hit = surface_pixels(scene)
     inner = hit.copy()
@@ -125,8 +125,8 @@ def biased_rmse(image_halves: tuple, truth_halves: tuple, mask: np.ndarray) -> f
 def bench_garments(quick: bool, folder: Path) -> list[tuple[str, Path, tuple, bool]]:
     """(name, OBJ path, view, deep folds?) of every garment (written to ``folder``), the towel
     of ``../shared/meshes`` when present."""
-    from .bench import SHARED_MESHES
-    from .garments import GARMENTS
+    from .render import SHARED_MESHES
+    from ..render.garments import GARMENTS
 
     names = {g for g, _ in QUICK} if quick else set(GARMENTS)
     out = []
@@ -144,7 +144,7 @@ def bench_garments(quick: bool, folder: Path) -> list[tuple[str, Path, tuple, bo
 def _pitch_for(fabric, mesh, options, pixels_per_repeat: float) -> float:
     """The yarn pitch (mm) at which one repeat covers ``pixels_per_repeat`` pixels at the
     mesh's nearest point in this view (at most ``--pitch-mm``'s limit)."""
-    from .scene import frame_camera
+    from ..render.scene import frame_camera
 
     camera = frame_camera(mesh.bounds, view=options.view, kind=options.camera, fov_deg=options.fov_deg,
                           margin=options.margin, size=options.size)
@@ -156,7 +156,7 @@ def _halves(scene, spp: int, seed: int, keep: Path | None = None) -> tuple[np.nd
     (an ``.npz``) when it holds them, else written there (the references cost most of the
     bench and do not change when a renderer under test does)."""
     from ..io import atomic_path
-    from .run import render_passes
+    from ..render.run import render_passes
 
     if keep is not None and keep.is_file():
         with np.load(keep, allow_pickle=False) as data:
@@ -176,8 +176,8 @@ def measure(fabric, mesh, light: str, view: tuple, *, fold: bool, progress=lambd
     where the references (direct's truth, path tracing) are kept for a later run."""
     from dataclasses import replace
 
-    from . import modes
-    from .run import RenderContext, RenderOptions, prepare_render, render_fabric, render_passes
+    from ..render import modes
+    from ..render.run import RenderContext, RenderOptions, prepare_render, render_fabric, render_passes
 
     out = {"views": {}}
     images = {}
@@ -245,8 +245,8 @@ def run(quick: bool = False, progress=None, folder: Path | None = None, on_row=N
     """Every garment × light (``quick``: QUICK only); each row one (garment, light); ``on_row``
     is called with the rows so far after each (to keep them should the run be stopped)."""
     from .. import params
-    from .mesh import load_mesh
-    from .scene import LIGHTS
+    from ..render.mesh import load_mesh
+    from ..render.scene import LIGHTS
 
     say = progress or (lambda m: None)
     rows = []
@@ -278,7 +278,7 @@ def run(quick: bool = False, progress=None, folder: Path | None = None, on_row=N
 def write_sheet(images: dict, path: Path) -> None:
     """A labelled contact sheet (:func:`weavecap.render.sheet.contact_sheet`): per view direct |
     neural | |neural − direct| × 4, and for the far view path tracing | direct + fold."""
-    from .sheet import contact_sheet
+    from ..render.sheet import contact_sheet
 
     cells, labels = [], []
     for view, im in images.items():
@@ -341,7 +341,7 @@ def section_table(rows: list[dict]) -> str:
 
 
 def _register() -> None:
-    from .bench import Section, register_section
+    from .render import Section, register_section
 
     register_section(Section("agreement", "Garments and lights never trained on: neural against direct, the fold "
                                           "term against path tracing", run, section_table))
@@ -351,7 +351,7 @@ _register()
 
 
 def main(argv: list[str] | None = None) -> None:
-    """``python -m weavecap.render.agreement [-o DIR] [--quick]``: the section, its sheets
+    """``python -m weavecap.bench.agreement [-o DIR] [--quick]``: the section, its sheets
     and ``agreement.json`` written to DIR, the table printed."""
     import argparse
     import json
@@ -359,7 +359,7 @@ def main(argv: list[str] | None = None) -> None:
 
     from ..io import atomic_write_text
 
-    parser = argparse.ArgumentParser(prog="python -m weavecap.render.agreement")
+    parser = argparse.ArgumentParser(prog="python -m weavecap.bench.agreement")
     parser.add_argument("-o", "--output", type=Path, default=Path("bench-out/agreement"))
     parser.add_argument("--quick", action="store_true")
     args = parser.parse_args(argv)
