@@ -67,7 +67,7 @@ def _fold_targets(out_dir: Path | None) -> list[Path]:
 
 def _fold(work: Path, out: Path, lights: int, per_light: int, epochs: int, seed: int, say, progress) -> None:
     """The fold renderer's part (Son et al.): LocalPT data on the fold suite, the BLIDF, held-out errors."""
-    from weavecap.render.fold import training
+    from weavecap.training import fold as training
 
     # blocks of 8 lights (at most half of them, so that one block is held out and one trained on)
     config = training.TrainConfig(seed=seed, lights=lights, per_light=per_light, epochs=epochs,
