@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import time
 from pathlib import Path
 
@@ -23,24 +22,15 @@ def _woven(work: Path, out: Path, fabrics: int, steps: int, seed: int, say, prog
     """The woven neural renderer's part (Chen et al. 2024): data, training, held-out errors."""
     from dataclasses import asdict
 
-    from weavecap.render.woven import data as woven_data
-    from weavecap.render.woven import train as woven_train
+    from weavecap.training import woven as woven_train
 
-    data_config = woven_data.DataConfig(fabrics=fabrics, seed=seed)
+    data_config = woven_train.DataConfig(fabrics=fabrics, seed=seed)
     train_config = woven_train.TrainConfig(steps=steps, seed=seed)
     folder = work / "woven"
     claim_work_folder(folder, {"data": asdict(data_config), "train": asdict(train_config)}, name="plan.json")
     say(f"woven: data for {fabrics} fabrics ({data_config.shards} shards) in {folder / 'data'}")
-    summary = woven_data.generate(folder / "data", data_config, progress=lambda d, t, m: progress(m))
-    # the time spent making the data, summed over the runs that made it (a resumed run adds its own)
-    timing = folder / "data_seconds.json"
-    runs = json.loads(timing.read_text())["runs"] if timing.exists() else []
-    if summary["shards_made"] or not runs:
-        runs.append({"seconds": summary["seconds"], "shards_made": summary["shards_made"]})
-    else:
-        runs[-1]["seconds"] += summary["seconds"]  # only the features/baseline pass was left
-    data_seconds = float(sum(r["seconds"] for r in runs))
-    timing.write_text(json.dumps({"seconds": data_seconds, "runs": runs}, indent=1) + "\n")
+    # the time spent making the data, over every run that made some of it (each shard keeps its own)
+    data_seconds = woven_train.generate(folder / "data", data_config, progress=lambda m: progress(f"woven: {m}"))
     dataset = woven_train.Dataset(folder / "data", data_config)
     say(f"woven: training {steps} steps on {len(dataset.inputs)} queries of {len(dataset.train_materials)} "
         f"materials ({len(dataset.held_materials)} held out)")

@@ -298,7 +298,7 @@ def furnace(fabric: Fabric, maps, *, views: int = 6, directions: int = 64, seed:
     footprints (points to repeats) and view directions; the largest of each."""
     from ..render.bsdf import SurfaceTextures, eval_surface, shading_of
     from ..render.woven.bsdf import NeuralSurfaceBSDF
-    from ..render.woven.data import stratified_hemisphere
+    from ..training.woven import stratified_hemisphere
 
     mi, dr = _mi()
     fabric = white(fabric)

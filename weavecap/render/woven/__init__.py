@@ -8,8 +8,9 @@ split into colour-free channels the colours multiply (so colours change without 
 - :mod:`.terms` splits :func:`weavecap.render.bsdf.eval_surface` into those channels (exact);
 - :mod:`.footprint` filters periodic maps over boxes (summed-area tables) and makes the
   prefiltered guess the decoder corrects;
-- :mod:`.data` makes the training data, :mod:`.network` is the PyTorch network and its losses,
-  :mod:`.train` trains it (resumable) and measures its held-out errors;
+- :mod:`.encoding` is what the encoder is given, :mod:`.network` is the PyTorch network and
+  its losses; :mod:`weavecap.training.woven` makes the training data, trains it (resumable) and
+  measures its held-out errors;
 - :mod:`.infer` (encoder once, Dr.Jit decoder) and :mod:`.bsdf` (the Mitsuba BSDF at the
   footprint) render with it, through the direct-light integrator of
   :mod:`weavecap.render.direct` (its methods traced inline; the camera at pixel centres);

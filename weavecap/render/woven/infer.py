@@ -26,7 +26,7 @@ from ..bsdf import opaque
 from ..surface import BACK, FACE, SurfaceMaps
 from . import network as _net
 from . import terms as _terms
-from .data import encoder_image, encoder_params
+from .encoding import encoder_image, encoder_params
 from .footprint import MIN_HALF_TEXELS, feature_image, periodic_sat
 
 WEIGHTS = "woven.npz"
