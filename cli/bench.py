@@ -8,6 +8,8 @@ from pathlib import Path
 
 import click
 
+from .report import Reporter
+
 
 @click.command(context_settings={"max_content_width": 100})
 @click.option("--quick", is_flag=True, help="Smaller benches: 3 fit photos (draft and normal presets), 1-2 render cases.")
@@ -67,7 +69,7 @@ def bench(quick, do_model, do_fit, do_render, sets, presets, light, out):
     chosen = {"model": do_model, "fit": do_fit, "render": do_render}
     named = [k for k, v in chosen.items() if v]
     run = set(named) if named else {k for k, v in chosen.items() if v is None}
-    say = lambda m: click.echo(m, err=True)  # noqa: E731
+    say = Reporter("bench").say
     if "model" in run:
         from weavecap.bench.model import CASES, run_cold, table
 
@@ -98,12 +100,11 @@ def bench(quick, do_model, do_fit, do_render, sets, presets, light, out):
             click.echo(f"exposure invariance (independent photos):\n{fit_bench.exposure_table(exposure)}\n")
         if "own" in photo_sets:
             fit_bench.plot(summary, out / "speed_vs_error.png")
-        click.echo(f"(plot: {out / 'speed_vs_error.png'}; details: {out / 'results.json'}; fits: {out / 'fits'})",
-                   err=True)
+        say(f"(plot: {out / 'speed_vs_error.png'}; details: {out / 'results.json'}; fits: {out / 'fits'})")
     if "render" in run:
         from weavecap.bench import render as render_bench
 
         results = render_bench.run(quick=quick, progress=say)
         atomic_write_text(out / "render.json", json.dumps(results, indent=1) + "\n")
         click.echo(render_bench.tables(results))
-        click.echo(f"\n(details: {out / 'render.json'})", err=True)
+        say(f"(details: {out / 'render.json'})")

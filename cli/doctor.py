@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
-import json
-
 import click
+
+from .options import json_option
+from .report import Reporter
 
 
 @click.command()
-@click.option("--json", "as_json", is_flag=True, help="Print the findings as one JSON object.")
+@json_option("the findings, one object,")
 @click.option("--check", is_flag=True, help="Also render a tiny scene, to prove the backend runs.")
 def doctor(as_json: bool, check: bool) -> None:
     """Show the Mitsuba/Dr.Jit set-up: versions, variant, libLLVM, threads, kernel cache.
@@ -26,7 +27,7 @@ def doctor(as_json: bool, check: bool) -> None:
         img = mi.render(mi.load_dict(mi.cornell_box()), spp=1)
         info["check_render"] = f"ok ({img.shape[1]}x{img.shape[0]})"
     if as_json:
-        click.echo(json.dumps(info, indent=1))
+        Reporter.json(info)
     else:
         width = max(len(k) for k in info)
         for key, value in info.items():

@@ -1,14 +1,13 @@
-"""``weavecap export``: the fabric for other tools (DESIGN.md, "Commands")."""
+"""``weavecap export``: the fabric for other tools (docs/export.md)."""
 
 from __future__ import annotations
 
-import json
-import sys
 from pathlib import Path
 
 import click
 
-from .options import FiniteFloat, force_option, pattern_option, quiet_option, seed_option, verbose_option
+from .options import FiniteFloat, force_option, json_option, pattern_option, quiet_option, seed_option, verbose_option
+from .report import Reporter
 
 
 def _formats(ctx, param, value: str) -> tuple[str, ...]:
@@ -46,7 +45,7 @@ def _formats(ctx, param, value: str) -> tuple[str, ...]:
 @click.option("--name", default=None, help="File name stem of the outputs, a plain name (no folders) [default: the "
                                            "params file's name, or its folder's for params.json].")
 @pattern_option
-@click.option("--json", "as_json", is_flag=True, help="Print the files written as JSON on standard output.")
+@json_option("the files written")
 @force_option
 @verbose_option
 @quiet_option
@@ -76,35 +75,21 @@ def export(params_file, out, formats, pitch_mm, texels_per_yarn, repeats, bits, 
       weavecap export fabric.json -o out/ --format pbr --maps exr --normal-convention directx
       weavecap export fabric.json -o out/ --format wif,u3m --pattern draft.wif --force
     """
-    from datetime import datetime, timezone
-
-    from weavecap import params as wparams
-    from weavecap.export import MATERIAL_FORMATS, ExportOptions, default_name
-    from weavecap.export import export as run_export
-    from weavecap.io import check_writable, folder_lock, plain_name
+    from weavecap.export import MATERIAL_FORMATS, ExportOptions, default_name, export_file
+    from weavecap.io import plain_name
+    from weavecap.patterns import load_pattern
 
     if name is not None:
         plain_name(name, what="--name")
-    check_writable(out, folder=True)
-    fabric = wparams.load(params_file)
-    if pattern_file is not None:
-        from weavecap.patterns import load_pattern
-
-        fabric = fabric.replace({"pattern": load_pattern(pattern_file)})
     options = ExportOptions(
         formats=formats, name=name or default_name(params_file), force=force, pitch_mm=pitch_mm,
         texels_per_yarn=texels_per_yarn, repeats=repeats, bits=int(bits), map_format=map_format,
-        normal_convention=normal_convention, swatch_mm=swatch_mm, seed=seed,
-        created=datetime.fromtimestamp(params_file.stat().st_mtime, timezone.utc),
-        source=wparams.dumps(fabric).encode())
-    if not quiet and (verbose or sys.stderr.isatty()):
-        work = " (baking the surface model and fitting the material)" if set(formats) & set(MATERIAL_FORMATS) else ""
-        click.echo(f"weavecap export: {', '.join(formats)} of {params_file} into {out}{work}", err=True)
-    with folder_lock(out):
-        written = run_export(fabric, out, options)
+        normal_convention=normal_convention, swatch_mm=swatch_mm, seed=seed)
+    tell = Reporter("export", verbose, quiet)
+    work = " (baking the surface model and fitting the material)" if set(formats) & set(MATERIAL_FORMATS) else ""
+    tell.progress(f"{', '.join(formats)} of {params_file} into {out}{work}")
+    written = export_file(params_file, out, options, pattern=load_pattern(pattern_file) if pattern_file else None)
     if as_json:
-        click.echo(json.dumps({"files": [str(p) for p in written]}, indent=1))
-    if not quiet:
-        for path in written:
-            if verbose or not as_json:
-                click.echo(f"wrote {path}", err=True)
+        tell.json({"files": [str(p) for p in written]})
+    for path in written:
+        tell.say(f"wrote {path}", level=1 if as_json else 0)

@@ -1,32 +1,15 @@
-"""``weavecap fit``: photos in, fabrics out (the main job; DESIGN.md, Wu et al. 2025 §4–6)."""
+"""``weavecap fit``: photos in, fabrics out (the main job; docs/design.md, Wu et al. 2025 §4–6)."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import click
 
-from .options import (FiniteFloat, check_batch_options, force_option, jobs_option, quiet_option, scheduler_option,
-                      seed_option, verbose_option)
-
-#: the share of a yarn family's cell centres the camera clipped (``fit.fidelity.clipped``) from
-#: which the fit's line says so. Measured (draft): 0 on the own renders (their clipped gaps are
-#: no yarn) and on the exposure check's satin 5 as shot, 16% a stop brighter (whose colours
-#: moved by up to ΔE 6.5 against the as-shot's, docs/capture.md Session 21), 60% and 79% on the
-#: independent twill 2/1 and random 4×4, 22% and 12% on the real W027 and W103
-CLIPPED_NOTE = 0.05
-
-
-def clipping_note(record: dict) -> str:
-    """A line for the fit's summary when the camera clipped a yarn family's colour (at least
-    :data:`CLIPPED_NOTE` of its cell centres): how bright it is, the photo does not show."""
-    clipped = {k: v for k, v in record["fit"]["fidelity"].get("clipped", {}).items() if v is not None}
-    worst = max(clipped, key=clipped.get, default=None)
-    if worst is None or clipped[worst] < CLIPPED_NOTE:
-        return ""
-    return (f"\n  note: the camera clipped {clipped[worst]:.0%} of the {worst} yarns' centres: their colour is a lower "
-            "bound; shoot a stop darker")
+from .lines import fitted
+from .options import (FiniteFloat, force_option, jobs_option, json_option, quiet_option, scheduler_option, seed_option,
+                      verbose_option)
+from .report import Reporter
 
 
 @click.command(context_settings={"max_content_width": 100})
@@ -58,7 +41,7 @@ def clipping_note(record: dict) -> str:
                    "exposure: the same fabric shot darker or brighter gets the same colours (a catalogue shot "
                    "at varying exposure).")
 @click.option("--no-network", is_flag=True, help="Start from Table 1 defaults instead of the initializer network.")
-@click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON on standard output.")
+@json_option("the summary")
 @seed_option
 @force_option
 @verbose_option
@@ -90,42 +73,19 @@ def fit(photos, out, quality, light, budget_s, jobs, scheduler, start_from, patt
       weavecap fit swatch.jpg -o refit/ --start-from swatch/params.json --pattern twill.txt
       weavecap fit shoot/*.jpg -o catalogue/ --exposure photo
     """
-    from weavecap import batch as wbatch
     from weavecap import params as wparams
-    from weavecap.io import check_writable, folder_lock
+    from weavecap.batch import run_folder
     from weavecap.patterns import load_pattern
     from weavecap.pipeline import CaptureOptions, FitJob
 
-    def say(message: str, level: int = 0, error: bool = False) -> None:
-        if error or (not quiet and verbose >= level):
-            click.echo(f"weavecap fit: {message}", err=True)
-
-    def report(event: wbatch.Event) -> None:
-        photo, record, where = event.item.source, event.record, f"[{event.index}/{event.total}]"
-        if event.kind == "skipped":
-            say(f"{photo}: already done ({record['status']}), skipped; --force redoes it")
-        elif event.kind == "started":
-            say(f"{where} {photo}: fitting ({quality})")
-        elif record.get("status") == "ok":
-            fit = record["fit"]
-            rigs = len(record["timings_s"].get("captures", {})) or 1
-            light = fit["light"]["rig"] + (f" light ({rigs} rigs tried)" if rigs > 1 else " light")
-            say(f"{where} {photo}: {record['weave']}, {record['grid']['yarns'][0]}x{record['grid']['yarns'][1]} "
-                f"repeat, PSNR {fit['psnr_db']:.1f} dB, sharpness {fit['fidelity']['sharpness']}, {light}, "
-                f"{record['timings_s']['total']:.1f} s -> {event.item.folder}{clipping_note(record)}")
-        else:
-            say(f"{where} {photo}: {event.line['status']}: {record.get('reason')}", error=True)
-
-    check_batch_options(jobs, scheduler)
-    check_writable(out, folder=True)
+    tell = Reporter("fit", verbose, quiet)
     job = FitJob(CaptureOptions(quality=quality, light=light, seed=seed, budget_s=budget_s,
                                 start_from=wparams.load(start_from) if start_from else None,
                                 pattern=load_pattern(pattern_file) if pattern_file else None,
                                 use_network=not no_network, exposure=exposure))
-    with folder_lock(out):
-        batch = wbatch.plan(job, photos, out, force=force)
-        result = wbatch.run(batch, jobs=jobs, scheduler=scheduler, on_event=report)
+    result = run_folder(job, photos, out, jobs=jobs, scheduler=scheduler, force=force, on_event=tell.batch(
+        f"fitting ({quality})", lambda event, where: tell.say(f"{where} {event.item.source}: "
+                                                             f"{fitted(event.record, event.item.folder)}")))
     if as_json:
-        click.echo(json.dumps(result.lines if batch.several else result.lines[0], indent=1))
-    if result.exit:
-        raise click.exceptions.Exit(result.exit)
+        tell.json(result.lines if len(photos) > 1 else result.lines[0])
+    tell.exit(result.exit)

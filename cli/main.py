@@ -4,20 +4,22 @@ Commands are imported only when invoked, so ``weavecap --help`` starts fast and 
 Mitsuba. Errors a user can fix (:class:`weavecap.errors.WeavecapError`) become a one-paragraph
 message and their exit status from :data:`weavecap.errors.OUTCOMES` (2 input, 3 rejected
 photo); anything else — a command module that fails to import included — exits 1 with a short
-message (set ``WEAVECAP_DEBUG=1`` for the traceback). Only a name missing from
-:data:`COMMANDS` is "No such command" (exit 2).
+message (set ``WEAVECAP_DEBUG=1`` for the traceback; :mod:`cli.process`, which also stops a
+command at once on Ctrl-C). Only a name missing from :data:`COMMANDS` is "No such command"
+(exit 2).
 """
 
 from __future__ import annotations
 
 import importlib
-import os
-import sys
 
 import click
 
 from weavecap import __version__
 from weavecap.errors import WeavecapError, outcome
+
+from . import process
+from .process import INTERRUPTED
 
 #: command name → "module:function" (modules under weavecap.cli)
 COMMANDS = {
@@ -31,9 +33,6 @@ COMMANDS = {
     "train-initializer": "weavecap.cli.train_initializer:train_initializer",
     "train-renderer": "weavecap.cli.train_renderer:train_renderer",
 }
-
-
-INTERRUPTED = "weavecap: interrupted; finished outputs are kept, partial ones were not written (run again to resume)"
 
 
 class UserError(click.ClickException):
@@ -105,84 +104,10 @@ def cli() -> None:
     """
 
 
-class Terminated(KeyboardInterrupt):
-    """SIGTERM, handled as Ctrl-C is (exit 143 instead of 130)."""
-
-
-def _terminated(signum, frame):
-    raise Terminated()
-
-
-def _run(argv: list[str] | None) -> None:
-    """The command itself; ends with SystemExit (its exit status)."""
-    try:
-        cli.main(args=argv, prog_name="weavecap", standalone_mode=True)
-    except SystemExit:
-        raise
-    except KeyboardInterrupt as exc:
-        click.echo(INTERRUPTED, err=True)
-        sys.exit(outcome(exc).exit)
-    except Exception as exc:  # noqa: BLE001 - the last line of defence: no tracebacks for users
-        if os.environ.get("WEAVECAP_DEBUG"):
-            raise
-        click.echo(f"weavecap: unexpected error: {type(exc).__name__}: {exc}\n"
-                   "  (set WEAVECAP_DEBUG=1 to see the traceback, and please report it)", err=True)
-        sys.exit(outcome(exc).exit)
-
-
 def main(argv: list[str] | None = None) -> None:
-    """Console-script entry point: Ctrl-C (and SIGTERM) stop any command within a fraction of a
-    second.
-
-    Python runs signal handlers in the main thread between bytecodes, so a long call into C++
-    (Dr.Jit compiling a kernel for minutes, a solver) would hold Ctrl-C until it returns. The
-    command therefore runs in a worker thread and this thread only waits for it: on Ctrl-C it
-    says so, removes the files being written (:func:`weavecap.io.remove_unfinished`; finished
-    files and summary lines stay, as each was renamed into place or flushed when done) and ends
-    the process, worker thread and compiler included (``os._exit``: exit 130, SIGTERM 143).
-    Worker processes of ``--jobs`` die with it (:func:`weavecap.batch._die_with_parent`), and the
-    lock of an ``-o`` folder goes with the process.
-    """
-    import signal
-    import threading
-
-    ended: dict[str, object] = {}
-
-    def command() -> None:
-        try:
-            _run(argv)
-        except SystemExit as exc:
-            ended["exit"] = exc.code
-        except BaseException as exc:  # noqa: BLE001 - WEAVECAP_DEBUG: shown by this thread
-            ended["error"] = exc
-
-    signal.signal(signal.SIGTERM, _terminated)
-    worker = threading.Thread(target=command, name="weavecap-command", daemon=True)
-    worker.start()
-    try:
-        while worker.is_alive():
-            worker.join(0.25)
-    except KeyboardInterrupt as exc:
-        from weavecap.io import remove_unfinished
-
-        click.echo(INTERRUPTED, err=True)
-        remove_unfinished()
-        sys.stdout.flush()
-        sys.stderr.flush()
-        os._exit(143 if isinstance(exc, Terminated) else outcome(exc).exit)
-    if "error" in ended:
-        raise ended["error"]
-    code = ended.get("exit")
-    status = code if isinstance(code, int) else (0 if code is None else 1)
-
-    def done(signum, frame):  # the work is done: a late Ctrl-C does not wait for the shutdown
-        sys.stdout.flush()
-        sys.stderr.flush()
-        os._exit(status)
-
-    signal.signal(signal.SIGINT, done)
-    signal.signal(signal.SIGTERM, done)
-    sys.exit(code)
+    """Console-script entry point: the command as :func:`cli.process.run` runs it (a worker
+    thread, so that Ctrl-C and SIGTERM stop it within a fraction of a second)."""
+    process.run(lambda: cli.main(args=argv, prog_name="weavecap", standalone_mode=True))
 
 
 if __name__ == "__main__":

@@ -1,12 +1,10 @@
 """Man pages generated from the click commands: ``man/weavecap.1`` and ``man/weavecap-CMD.1``.
 
-Run ``python -m weavecap.cli.manpages man`` (``make man``) after changing a command's help or
+Run ``make man`` (``python -m weavecap.cli.manpages man``) after changing a command's help or
 options; ``tests/test_manpages.py`` fails while ``man/`` is stale. The pages are a pure function
-of the click command tree and the package version (no dates), so regenerating is a no-op when
-nothing changed.
-
-Each page has NAME, SYNOPSIS, DESCRIPTION, OPTIONS, EXIT STATUS, EXAMPLES (the help's
-``Examples:`` block) and SEE ALSO. Commands whose module is not installed are left out.
+of the click command tree and the version (no dates). Each has NAME, SYNOPSIS, DESCRIPTION,
+OPTIONS, EXIT STATUS, EXAMPLES (the help's ``Examples:`` block) and SEE ALSO; commands whose
+module is not installed are left out.
 """
 
 from __future__ import annotations
@@ -106,19 +104,15 @@ def write(folder: Path) -> list[Path]:
     for stale in folder.glob("weavecap*.1"):
         if stale.name not in pages:
             stale.unlink()
-    written = []
     for name, text in pages.items():
-        path = folder / name
-        path.write_text(text, encoding="utf-8")
-        written.append(path)
-    return written
+        (folder / name).write_text(text, encoding="utf-8")
+    return [folder / name for name in pages]
 
 
 def main(argv: list[str] | None = None) -> None:
     """``python -m weavecap.cli.manpages [FOLDER]`` (default ``man``)."""
     args = sys.argv[1:] if argv is None else argv
-    for path in write(Path(args[0] if args else "man")):
-        print(f"wrote {path}")
+    print("\n".join(f"wrote {path}" for path in write(Path(args[0] if args else "man"))))
 
 
 if __name__ == "__main__":

@@ -47,47 +47,35 @@ def scheduler_option(item: str):
                              "pickles: use only a cluster you trust (docs/reliability.md).")
 
 
-def check_batch_options(jobs: int, scheduler: str | None) -> None:
-    """Refuse ``--jobs`` with ``--scheduler``, and a scheduler address weavecap cannot use
-    (:func:`weavecap.batch.scheduler_security`), before any work.
-
-    Raises
-    ------
-    InputError
-        Both given, ``local:`` with a bad count, a protocol other than tcp:// and tls://, or
-        tls:// without Dask's TLS settings.
-    """
-    from weavecap.batch import scheduler_security
-    from weavecap.errors import InputError
-
-    if scheduler and jobs > 1:
-        raise InputError("--jobs and --scheduler exclude each other: --jobs N runs N processes here, "
-                         "--scheduler local:N runs N Dask workers here")
-    if scheduler:
-        scheduler_security(scheduler)
+def size_pair(form: str, example: str, names: str, high: int):
+    """A click callback that reads two whole numbers ``AxB``, each in [1, ``high``]: render's
+    ``--size WxH``, synth's ``--tiles NxM``. ``form`` and ``example`` are shown when the form
+    is wrong, ``names`` when a number is out of range."""
+    def parse(ctx, param, value: str) -> tuple[int, int]:
+        try:
+            a, b = (int(v) for v in value.lower().split("x"))
+        except ValueError:
+            raise click.BadParameter(f"{value!r} is not of the form {form}, e.g. {example}") from None
+        if not (1 <= a <= high and 1 <= b <= high):
+            raise click.BadParameter(f"{value!r}: {names} must be in [1, {high}]")
+        return a, b
+    return parse
 
 
-def parse_tiles(ctx, param, value: str) -> tuple[int, int]:
-    """Parse ``NxM`` (rows x columns of repeats), e.g. ``4x4``."""
+#: synth's ``--tiles``: rows x columns of repeats; render's ``--size``: width x height in pixels
+parse_tiles = size_pair("NxM", "4x4", "each count", 64)
+parse_size = size_pair("WxH", "1280x720", "width and height", 16384)
+
+
+def parse_offset(ctx, param, value: str) -> tuple[float, float]:
+    """Parse ``U,V`` (render's ``--fabric-offset``, in repeats), e.g. ``0.5,0``."""
     try:
-        rows, cols = (int(v) for v in value.lower().split("x"))
+        u, v = (float(x) for x in value.split(","))
     except ValueError:
-        raise click.BadParameter(f"{value!r} is not of the form NxM, e.g. 4x4") from None
-    if not (1 <= rows <= 64 and 1 <= cols <= 64):
-        raise click.BadParameter(f"{value!r}: each count must be in [1, 64]")
-    return rows, cols
+        raise click.BadParameter(f"{value!r} is not of the form U,V (in repeats), e.g. 0.5,0") from None
+    return u, v
 
 
-def claim_work_folder(work, plan: dict, *, name: str = "config.json") -> None:
-    """Make ``work`` hold the data of ``plan`` (a dict of settings, recorded in ``work/name``):
-    refuse, naming the file, a folder that holds data made with other settings."""
-    import json
-
-    from weavecap.errors import InputError
-
-    plan_file = work / name
-    if plan_file.is_file() and json.loads(plan_file.read_text()) != json.loads(json.dumps(plan)):
-        raise InputError(f"{work}: holds data or a checkpoint made with other settings ({plan_file}); use another "
-                         "--work folder or delete that one")
-    work.mkdir(parents=True, exist_ok=True)
-    plan_file.write_text(json.dumps(plan, indent=1) + "\n")
+def json_option(what: str):
+    """``--json``: print ``what`` (``"the summary"``) on standard output (:meth:`Reporter.json`)."""
+    return click.option("--json", "as_json", is_flag=True, help=f"Print {what} as JSON on standard output.")

@@ -3,14 +3,12 @@
 from __future__ import annotations
 
 import json
-import time
 from pathlib import Path
 
 import click
 
-from .options import force_option, quiet_option, verbose_option
-
-OUTPUTS = ("rectified.png", "regularized.png", "grid.png", "prepare.json")
+from .options import force_option, json_option, quiet_option, verbose_option
+from .report import Reporter
 
 
 @click.command()
@@ -20,10 +18,12 @@ OUTPUTS = ("rectified.png", "regularized.png", "grid.png", "prepare.json")
 @click.option("--pattern", "pattern_file", type=click.Path(dir_okay=False, readable=False, path_type=Path),
               help="A known weave pattern (params .json, .wif weaving draft, or a text file of 0/1 rows): its "
                    "repeat is used where the photo shows a shorter one, as `weavecap fit --pattern` does.")
+@json_option("prepare.json (or, for a rejected photo, why)")
 @force_option
 @verbose_option
 @quiet_option
-def prepare(photo: Path, out_dir: Path, pattern_file: Path | None, force: bool, verbose: int, quiet: bool) -> None:
+def prepare(photo: Path, out_dir: Path, pattern_file: Path | None, as_json: bool, force: bool, verbose: int,
+            quiet: bool) -> None:
     """Rectify PHOTO, regularize it, and find its yarn grid and minimum repeat.
 
     Writes into the output folder: rectified.png (the photo turned so that warps run
@@ -44,51 +44,25 @@ def prepare(photo: Path, out_dir: Path, pattern_file: Path | None, force: bool, 
       weavecap prepare swatch.jpg -o prepared/
       weavecap prepare swatch.dng -o prepared/ --force -v
       weavecap prepare swatch.jpg -o prepared/ --pattern draft.wif
+      weavecap prepare swatch.jpg -o prepared/ --json -q > prepared.json
       for f in photos/*.jpg; do weavecap prepare "$f" -o "out/$(basename "$f" .jpg)" -q; done
     """
-    from weavecap.errors import InputError, PhotoError
-    from weavecap.io import check_writable, folder_lock, not_an_input, refuse_overwrite, write_result_set
+    from weavecap.errors import PhotoError
     from weavecap.patterns import load_pattern
-    from weavecap.photo import load_photo, save_png
-    from weavecap.prepare import PrepareConfig, Rejected, prepare_photo
+    from weavecap.prepare.outputs import prepare_into
 
-    def say(message: str, level: int = 0) -> None:
-        if not quiet and verbose >= level:
-            click.echo(f"weavecap prepare: {message}", err=True)
-
-    if not_an_input(photo, "photo"):
-        raise InputError(not_an_input(photo, "photo") + " (nothing was written)")
-    check_writable(out_dir, folder=True)
-    click.get_current_context().with_resource(folder_lock(out_dir))  # held to the end of the command
-    for name in OUTPUTS:
-        refuse_overwrite(out_dir / name, force=force)
-
+    tell = Reporter("prepare", verbose, quiet)
     repeat = None if pattern_file is None else load_pattern(pattern_file).shape
-    t0 = time.perf_counter()
-    say(f"reading {photo}")
-    loaded = load_photo(photo)
-    say(f"{loaded.width}×{loaded.height} {loaded.source_format}, {loaded.bit_depth}-bit", 1)
-    result = prepare_photo(loaded.rgb, PrepareConfig(), repeat=repeat, progress=lambda stage: say(stage))
-    if isinstance(result, Rejected):
+    record = prepare_into(photo, out_dir, repeat=repeat, force=force, say=tell.say)
+    if as_json:
+        tell.json(record)
+    if record["status"] == "rejected":
         if verbose:
-            click.echo(json.dumps(result.to_json()["checks"], indent=1), err=True)
-        raise PhotoError(f"{photo}: rejected ({result.code}): {result.reason}; nothing was written")
-
-    report = {
-        "format": "weavecap.prepare/1",
-        "input": {"path": str(photo), "sha256": loaded.sha256, "width": loaded.width, "height": loaded.height},
-        **result.to_json(),
-    }
-    say("writing " + ", ".join(OUTPUTS))
-    report["timings_s"]["with_io"] = round(time.perf_counter() - t0, 4)
-    # one result set, prepare.json last: it is what says the set is complete
-    write_result_set(out_dir, {"rectified.png": lambda path: save_png(path, result.rectification.image),
-                               "regularized.png": lambda path: save_png(path, result.regularized.image),
-                               "grid.png": lambda path: save_png(path, result.grid_overlay())},
-                     record=("prepare.json", json.dumps(report, indent=1) + "\n"), outputs=OUTPUTS)
-    g = result.grid
-    say(f"turned {result.rectification.rotation_deg:+.2f}°, pitch {g.pitch_px[0]:.2f} × {g.pitch_px[1]:.2f} px, "
-        f"repeat {g.yarns[0]} wefts × {g.yarns[1]} warps ({g.repeat_px[0]:.1f} × {g.repeat_px[1]:.1f} px), "
-        f"{report['timings_s']['total']:.2f} s"
-        + ("" if repeat is None else f"; the given pattern's repeat, the photo showing "
-           f"{result.checks['repeat_in_photo'][0]} × {result.checks['repeat_in_photo'][1]}"))
+            click.echo(json.dumps(record["checks"], indent=1), err=True)
+        raise PhotoError(f"{photo}: rejected ({record['code']}): {record['reason']}; nothing was written")
+    rect, g = record["rectification"], record["grid"]
+    tell.say(f"turned {rect['rotation_deg']:+.2f}°, pitch {g['pitch_px'][0]:.2f} × {g['pitch_px'][1]:.2f} px, "
+             f"repeat {g['yarns'][0]} wefts × {g['yarns'][1]} warps "
+             f"({g['repeat_px'][0]:.1f} × {g['repeat_px'][1]:.1f} px), {record['timings_s']['total']:.2f} s"
+             + ("" if repeat is None else f"; the given pattern's repeat, the photo showing "
+                f"{record['checks']['repeat_in_photo'][0]} × {record['checks']['repeat_in_photo'][1]}"))

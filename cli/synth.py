@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
 import click
 
 from .options import force_option, parse_tiles, pattern_option, quiet_option, seed_option
+from .report import Reporter
 
 
 @click.command(context_settings={"max_content_width": 100})
@@ -50,33 +50,13 @@ def synth(params_file: Path, output: Path, tiles, size, light, spp, rotate_deg, 
       weavecap synth fabric.json -o turned.png --rotate 20 --camera perspective --seed 3
       weavecap synth fabric.json -o draft.png --pattern draft.wif
     """
-    from weavecap import params as wparams
-    from weavecap.io import check_writable, refuse_overwrite
-    from weavecap.photo import save_image, supported_output
-
-    supported_output(output)  # fail on a bad extension, an unwritable place or an existing output before any work
-    check_writable(output, folder=False)
-    refuse_overwrite(output, force=force)
-    fabric = wparams.load(params_file)
-    if pattern_file is not None:
-        from weavecap.patterns import load_pattern
-
-        fabric = fabric.replace({"pattern": load_pattern(pattern_file)})
-
-    from weavecap.model.render import render_numpy
-    from weavecap.model.scene import View, build_scene
+    from weavecap.model.photo import synth_photo
+    from weavecap.model.scene import View
+    from weavecap.patterns import load_pattern
 
     view = View(tiles=tiles, size=size, camera=camera, fov_deg=fov_deg, rotate_deg=rotate_deg, spp=spp)
-    start = time.perf_counter()
-    scene = build_scene(fabric, view, light=light)
-    image = render_numpy(scene, seed=seed)
-    if noise and fabric.noise:
-        from weavecap.noise import add_noise
-
-        pitch_px = image.shape[1] / (tiles[1] * fabric.shape[1])  # yarn pitch in the image, px
-        image = add_noise(image, fabric.noise, pitch_px=pitch_px, seed=seed)
-    save_image(output, image, overwrite=force)
-    if not quiet:
-        h, w = image.shape[:2]
-        click.echo(f"wrote {output} ({w}x{h}, {fabric.shape[0]}x{fabric.shape[1]} pattern, "
-                   f"{tiles[0]}x{tiles[1]} repeats, {time.perf_counter() - start:.1f} s)", err=True)
+    pattern = load_pattern(pattern_file) if pattern_file else None
+    made = synth_photo(params_file, output, view, light=light, pattern=pattern, noise=noise, seed=seed, force=force)
+    (w, h), (rows, cols) = made["size"], made["tiles"]
+    Reporter("synth", quiet=quiet).say(f"wrote {output} ({w}x{h}, {made['pattern'][0]}x{made['pattern'][1]} pattern, "
+                                       f"{rows}x{cols} repeats, {made['seconds']:.1f} s)")

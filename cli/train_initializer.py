@@ -7,7 +7,8 @@ from pathlib import Path
 
 import click
 
-from .options import claim_work_folder, force_option, quiet_option, seed_option
+from .options import force_option, quiet_option, seed_option
+from .report import Reporter
 
 
 @click.command(context_settings={"max_content_width": 100})
@@ -45,35 +46,16 @@ def train_initializer(work: Path, out_dir: Path | None, geometries: int, per_geo
     """
     from weavecap.errors import InputError
     from weavecap.estimate.initializer import RECORD_FILE, WEIGHTS_FILE, weights_dir
-    import numpy as np
-
-    from weavecap.training.initializer import TrainConfig, generate_data, heldout_errors, load_data, train, write_weights
-    from weavecap.io import refuse_overwrite
+    from weavecap.training.initializer import TrainConfig, train_initializer as make_weights
 
     out_dir = out_dir or weights_dir()
-    for name in (WEIGHTS_FILE, RECORD_FILE):
-        refuse_overwrite(out_dir / name, force=force)
     try:
         config = TrainConfig(seed=seed, geometries=geometries, per_geometry=per_geometry,
                              shard_geometries=shard_size, epochs=epochs)
     except ValueError as exc:
         raise InputError(f"--geometries/--shard-size: {exc}") from None
-    claim_work_folder(work, config.data_settings())
-
-    def progress(message: str) -> None:
-        if not quiet:
-            click.echo(f"weavecap train-initializer: {message}", err=True)
-
+    tell = Reporter("train-initializer", quiet=quiet)
     t0 = time.perf_counter()
-    data_seconds = generate_data(work, config, progress=progress)
-    net, train_seconds = train(work, config, progress=progress)
-    train_set, held = load_data(work, config)
-    errors = heldout_errors(net, held)
-    counts = {"images": int(len(train_set["y"]) + len(held["y"])), "train": int(len(train_set["y"])),
-              "heldout": int(len(held["y"])), "geometries": geometries,
-              "families": {str(f): int(n) for f, n in zip(*np.unique(
-                  train_set["family"], return_counts=True))}}
-    write_weights(out_dir, net, config, data_seconds=data_seconds, train_seconds=train_seconds, held=errors,
-                  counts=counts)
-    progress(f"wrote {out_dir / WEIGHTS_FILE} and {out_dir / RECORD_FILE} "
-             f"(data {data_seconds:.0f} s, training {train_seconds:.0f} s, this run {time.perf_counter() - t0:.0f} s)")
+    record = make_weights(work, out_dir, config, force=force, progress=tell.say)
+    tell.say(f"wrote {out_dir / WEIGHTS_FILE} and {out_dir / RECORD_FILE} (data {record['seconds']['data']:.0f} s, "
+             f"training {record['seconds']['train']:.0f} s, this run {time.perf_counter() - t0:.0f} s)")

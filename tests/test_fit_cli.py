@@ -124,7 +124,7 @@ def test_a_bad_pattern_file_names_the_fix(tmp_path):
 def test_the_fits_line_says_when_the_camera_clipped_a_familys_colour():
     """From 5% of a family's cell centres clipped (``fit.fidelity.clipped``), the line names the
     family and what to do; under it, or where no figure was taken, nothing."""
-    from weavecap.cli.fit import clipping_note
+    from weavecap.cli.lines import clipping_note
 
     def record(clipped):
         return {"fit": {"fidelity": {"clipped": clipped}}}

@@ -35,7 +35,8 @@ from pathlib import Path
 from typing import Callable, Iterable, Iterator, Protocol
 
 from .errors import InputError, WeavecapError, outcome, outcome_of_status, worst_exit
-from .io import LOCK, atomic_write_text, folder_name, inside, loads_json, not_an_input, staged, write_result_set
+from .io import (LOCK, atomic_write_text, check_writable, folder_lock, folder_name, inside, loads_json, not_an_input,
+                 staged, write_result_set)
 
 SUMMARY = "summary.jsonl"
 FINISHED = ("ok", "rejected")  # statuses of a record that a resumed batch skips
@@ -182,6 +183,42 @@ def _refusal(job: Job, item: Item, record: dict | None) -> str:
         what = (f"holds results of another run: its {job.record} is of {of}, a different file from "
                 f"{str(item.source)!r} (compared by SHA-256)")
     return f"{item.folder}: {what}; use --force to replace them or choose another -o folder (nothing was written)"
+
+
+def check_options(jobs: int, scheduler: str | None) -> None:
+    """Refuse ``jobs`` > 1 with a ``scheduler``, and a scheduler address weavecap cannot use
+    (:func:`scheduler_security`), before any work.
+
+    Raises
+    ------
+    InputError
+        Both given, ``local:`` with a bad count, a protocol other than tcp:// and tls://, or
+        tls:// without Dask's TLS settings.
+    """
+    if scheduler and jobs > 1:
+        raise InputError("--jobs and --scheduler exclude each other: --jobs N runs N processes here, "
+                         "--scheduler local:N runs N Dask workers here")
+    if scheduler:
+        scheduler_security(scheduler)
+
+
+@contextlib.contextmanager
+def held(out: Path, *, jobs: int = 1, scheduler: str | None = None) -> Iterator[Path]:
+    """A batch's ``-o`` folder, checked before any work (:func:`check_options`, an unwritable
+    folder) and held for the run (:func:`weavecap.io.folder_lock`), from :func:`plan` to the
+    end of :func:`run`."""
+    check_options(jobs, scheduler)
+    check_writable(out, folder=True)
+    with folder_lock(out):
+        yield Path(out)
+
+
+def run_folder(job: Job, sources: Iterable[Path], out: Path, *, jobs: int = 1, scheduler: str | None = None,
+               force: bool = False, on_event: Callable[[Event], None] | None = None) -> Result:
+    """A whole batch into ``out``: checked and held (:func:`held`), planned (:func:`plan`) and
+    run (:func:`run`), as ``weavecap fit`` does it."""
+    with held(out, jobs=jobs, scheduler=scheduler):
+        return run(plan(job, sources, out, force=force), jobs=jobs, scheduler=scheduler, on_event=on_event)
 
 
 def plan(job: Job, sources: Iterable[Path], out: Path, *, force: bool = False,

@@ -56,10 +56,17 @@ def test_three_params_give_three_images_and_three_summary_lines(tmp_path):
     assert not np.array_equal(images["plain"], images["twill_2_1"])  # each its own fabric
     assert sorted(p.name for p in out.iterdir()) == ["plain", "satin_5", "sheet.png", "summary.jsonl", "twill_2_1"]
     assert load_photo(out / "sheet.png").rgb.shape[1] > 2 * 32
-    single = tmp_path / "plain.png"  # one params file: straight to the image, as before
+    single = tmp_path / "plain.png"  # one params file: a batch of one, into the image -o names and its record
     assert render(PARAMS / "plain.json", MESH, "-o", single, *TINY).exit_code == 0
     assert single.read_bytes() == (out / "plain" / "render.png").read_bytes()
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["looks", "plain.png"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["looks", "plain.png", "plain.png.json"]
+    record, batch_record = (json.loads(p.read_text()) for p in (tmp_path / "plain.png.json", out / "plain" / "render.json"))
+    assert record["output"] == str(single) and record["input"] == batch_record["input"]
+    assert record["timings_s"]["mesh"] > 0 and "mesh" not in batch_record["timings_s"]
+    for doc in (record, batch_record):  # all but the image's name and the seconds are the same
+        doc["fold_detail"].pop("timings")
+        del doc["output"], doc["timings_s"]
+    assert record == batch_record
 
 
 def test_a_rerun_resumes_renders_nothing_twice_and_force_redoes_all(tmp_path):

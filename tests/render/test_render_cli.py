@@ -50,6 +50,38 @@ def test_renders_a_png_and_never_overwrites_without_force(tmp_path):
     assert out.read_bytes() != before
 
 
+def test_a_single_render_is_a_batch_of_one_with_its_record_beside_the_image(tmp_path):
+    """-o IMAGE writes IMAGE and its record IMAGE.json (as OUT/<name>/render.json of a batch);
+    --force replaces both; a failed render's record is redone without --force, another params
+    file's record is not."""
+    from weavecap.photo import file_sha256
+
+    out = tmp_path / "look.png"
+    result = run(PARAMS / "plain.json", MESHES / "swatch.obj", "-o", out, *TINY, "--json", "-q")
+    assert result.exit_code == 0, result.output
+    record = json.loads((tmp_path / "look.png.json").read_text())
+    assert record["status"] == "ok" and record["output"] == str(out) and record["size"] == [48, 32]
+    assert record["input"] == {"path": str(PARAMS / "plain.json"), "sha256": file_sha256(PARAMS / "plain.json")}
+    assert record["timings_s"]["total"] >= record["timings_s"]["mesh"] + record["timings_s"]["render"]
+    line = json.loads(result.stdout)["images"][0]
+    assert (line["status"], line["output"], line["spp"]) == ("ok", str(out), 2)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["look.png", "look.png.json"]
+
+    forced = run(PARAMS / "twill_2_1.json", MESHES / "swatch.obj", "-o", out, *TINY, "--force", "-q")
+    assert forced.exit_code == 0, forced.output
+    assert json.loads((tmp_path / "look.png.json").read_text())["input"]["path"] == str(PARAMS / "twill_2_1.json")
+
+    out.unlink()  # as a render that failed leaves it: its record alone
+    failed = {**record, "status": "failed", "reason": "unexpected error: boom"}
+    (tmp_path / "look.png.json").write_text(json.dumps(failed))
+    assert run(PARAMS / "plain.json", MESHES / "swatch.obj", "-o", out, *TINY, "-q").exit_code == 0
+    assert json.loads((tmp_path / "look.png.json").read_text())["status"] == "ok" and out.is_file()
+    out.unlink()
+    (tmp_path / "look.png.json").write_text(json.dumps(failed))
+    other = run(PARAMS / "satin_5.json", MESHES / "swatch.obj", "-o", out, *TINY)
+    assert other.exit_code == 2 and "holds results of another run" in other.output and not out.exists()
+
+
 def test_the_same_seed_gives_the_same_image_bit_for_bit(tmp_path):
     images = []
     for name, seed in (("a.exr", 3), ("b.exr", 3), ("c.exr", 4)):

@@ -17,7 +17,7 @@ from __future__ import annotations
 import functools
 import os
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from datetime import datetime, timezone
 from pathlib import Path
 
@@ -233,3 +233,29 @@ def export(fabric: Fabric, out: str | os.PathLike, options: ExportOptions) -> li
         plan.write()
         written.extend(plan.paths)
     return written
+
+
+def export_file(params_file: str | os.PathLike, out: str | os.PathLike, options: ExportOptions, *,
+                pattern=None) -> list[Path]:
+    """``weavecap export``: the fabric of ``params_file`` (with ``pattern``, (wefts, warps)
+    uint8, in place of its own when given) written by :func:`export` into the folder ``out``,
+    found writable before any work and held for the run (:func:`weavecap.io.folder_lock`).
+    The U3M material's time stamp and id come from the file: its modification time, its fabric.
+
+    Raises
+    ------
+    InputError
+        ``out`` cannot be written or another run holds it, a bad params file or pattern, or
+        what :func:`export` refuses.
+    """
+    from .. import params as wparams
+    from ..io import check_writable, folder_lock
+
+    check_writable(out, folder=True)
+    fabric = wparams.load(params_file)
+    if pattern is not None:
+        fabric = fabric.replace({"pattern": pattern})
+    options = replace(options, created=datetime.fromtimestamp(Path(params_file).stat().st_mtime, timezone.utc),
+                      source=wparams.dumps(fabric).encode())
+    with folder_lock(out):
+        return export(fabric, out, options)

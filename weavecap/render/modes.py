@@ -36,6 +36,13 @@ from ..errors import InputError
 #: ``weavecap render``'s mode when none is given: the surface model's direct light, adaptive
 #: spp — right under every light, where the neural renderer is not yet (docs/render.md, *Modes*)
 DEFAULT_MODE = "direct"
+#: ``weavecap render --help``'s words on the modes and their samples a pixel
+MODE_HELP = ("direct: direct lighting (one bounce) of the surface model, every light at every sample, samples until "
+             "the noise is below what shows; reference: path tracing of the surface model; neural: the woven neural "
+             "BSDF at each pixel's footprint, direct light (Chen et al. 2024; a few samples a pixel at any distance, "
+             "its colours a few percent darker: docs/woven.md).")
+SPP_HELP = ("Samples per pixel  [default: direct until the noise is below 1 L*, at most 512; neural 4 (a 2x2 grid of "
+            "footprints); reference 64]")
 #: optional packages that register modes and fold terms when imported (absent ones are skipped)
 PLUGINS = ("weavecap.render.woven", "weavecap.render.fold")
 FOLD_CHOICES = ("auto", "on", "off")

@@ -221,3 +221,34 @@ def write_weights(out: Path, net, config: TrainConfig, *, data_seconds: float, t
     }
     skeleton.write_weights(out / WEIGHTS_FILE, net, record)
     return record
+
+
+def train_initializer(work: Path, out: Path, config: TrainConfig, *, force: bool = False,
+                      progress: Progress = lambda s: None) -> dict:
+    """``weavecap train-initializer``: make the data under ``work`` (claimed for ``config``'s
+    data settings: :func:`weavecap.training.work.claim_work_folder`), train the network, measure
+    its held-out errors and write ``initializer.pt`` and ``initializer.json`` into ``out``.
+    Returns the record.
+
+    Raises
+    ------
+    InputError
+        The weights exist and ``force`` is not given (checked before any work), or ``work``
+        holds data made with other settings.
+    """
+    from ..estimate.initializer import RECORD_FILE
+    from ..io import refuse_overwrite
+    from .work import claim_work_folder
+
+    for name in (WEIGHTS_FILE, RECORD_FILE):
+        refuse_overwrite(out / name, force=force)
+    claim_work_folder(work, config.data_settings())
+    data_seconds = generate_data(work, config, progress=progress)
+    net, train_seconds = train(work, config, progress=progress)
+    train_set, held = load_data(work, config)
+    families = dict(zip(*np.unique(train_set["family"], return_counts=True)))
+    counts = {"images": int(len(train_set["y"]) + len(held["y"])), "train": int(len(train_set["y"])),
+              "heldout": int(len(held["y"])), "geometries": config.geometries,
+              "families": {str(f): int(n) for f, n in families.items()}}
+    return write_weights(out, net, config, data_seconds=data_seconds, train_seconds=train_seconds,
+                         held=heldout_errors(net, held), counts=counts)
