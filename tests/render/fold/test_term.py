@@ -95,8 +95,8 @@ def test_render_command_reports_the_fold_term(tmp_path):
                                       "--json", "-v"])
     assert result.exit_code == 0, result.output
     assert "fold term blidf: r = 29.6 mm" in result.stderr
-    doc = json.loads(result.stdout)
-    assert doc["images"][0]["fold"] == "blidf" and doc["images"][0]["fold_detail"]["neighbours"] == term.NEIGHBOURS
+    record = json.loads(out.with_name(out.name + ".json").read_text())  # the record beside the image
+    assert record["fold"] == "blidf" and record["fold_detail"]["neighbours"] == term.NEIGHBOURS
 
 
 def test_the_fold_term_adds_the_same_light_to_the_woven_neural_mode(fabric):
