@@ -24,7 +24,7 @@ demo: install
 	$(BIN)/weavecap synth out/twill_3_1/params.json -o out/twill_3_1/resynth.png --tiles 4x4 --size 512 --force
 	# the captured fabric on a garment (a coarse 3 mm pitch, so the weave shows at this size)
 	$(BIN)/weavecap render out/twill_3_1/params.json fixtures/meshes/skirt.obj -o out/twill_3_1/skirt.png \
-	  --size 560x420 --view 20,12 --pitch-mm 3 --spp 128 --force
+	  --size 560x420 --view 20,12 --pitch-mm 3 --force
 
 test: install
 	$(BIN)/python -m pytest -q -p no:cacheprovider

@@ -102,7 +102,7 @@ def bench(quick, do_model, do_fit, do_render, sets, presets, light, out):
             fit_bench.plot(summary, out / "speed_vs_error.png")
         say(f"(plot: {out / 'speed_vs_error.png'}; details: {out / 'results.json'}; fits: {out / 'fits'})")
     if "render" in run:
-        from weavecap.render import bench as render_bench
+        from weavecap.bench import render as render_bench
 
         results = render_bench.run(quick=quick, progress=say)
         atomic_write_text(out / "render.json", json.dumps(results, indent=1) + "\n")

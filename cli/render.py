@@ -7,6 +7,8 @@ from pathlib import Path
 
 import click
 
+from weavecap.render.modes import DEFAULT_MODE, MODE_HELP, SPP_HELP
+
 from . import lines
 from .options import (force_option, jobs_option, json_option, parse_offset, parse_size, pattern_option, quiet_option,
                       scheduler_option, seed_option, verbose_option)
@@ -19,12 +21,8 @@ from .report import Reporter
               help="Image to write (.png sRGB, .exr linear, .tif 16-bit) and, beside it, its record IMAGE.json; "
                    "with several PARAMS, a folder (OUT/<name>/render.png and render.json per params file, named "
                    "after it, and OUT/summary.jsonl).")
-@click.option("--mode", default="neural", show_default=True,
-              help="neural: the woven neural BSDF at each pixel's footprint, direct light, 1 spp by default "
-                   "(Chen et al. 2024); reference: path tracing of the surface model; direct: direct lighting only "
-                   "(one bounce).")
-@click.option("--spp", type=click.IntRange(1, 65536), default=None,
-              help="Samples per pixel  [default: 1 for neural (pixel centres), 64 for the others]")
+@click.option("--mode", default=DEFAULT_MODE, show_default=True, help=MODE_HELP)
+@click.option("--spp", type=click.IntRange(1, 65536), default=None, help=SPP_HELP)
 @click.option("--size", default="1280x720", show_default=True, callback=parse_size, help="Image size WxH in pixels.")
 @click.option("--view", default="front", show_default=True,
               help="front (camera on +z looking at -z, y up), back, left, right, top, or AZ,EL in degrees.")
@@ -110,8 +108,8 @@ def render(inputs, out, units, object_name, sheet, jobs, scheduler, as_json, pat
         params_files, mesh_file, out, options, pattern=load_pattern(pattern_file) if pattern_file else None,
         units=units, object_name=object_name, sheet=sheet, jobs=jobs, scheduler=scheduler, force=force,
         on_step=lambda step: tell.say(f"{mesh_file}: {step}"), on_mesh=lambda mesh: lines.tell_mesh(tell, mesh),
-        on_event=tell.batch(f"rendering ({options.mode}, {options.spp} spp)", partial(lines.tell_render, tell),
-                            started_level=1),
+        on_event=tell.batch(f"rendering ({options.mode}, {options.spp or 'adaptive'} spp)",
+                            partial(lines.tell_render, tell), started_level=1),
         progress=tell.counter(params_files[0].name, "samples per pixel"))
     if done.sheet:
         tell.say(f"wrote {out / 'sheet.png'} ({len(done.sheet)} of {len(params_files)} images)")

@@ -29,7 +29,7 @@ VARIANTS = {
 
 
 def main() -> None:
-    from weavecap.render.woven import data, train
+    from weavecap.training import woven as train
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("data", type=Path, help="a data folder made by weavecap train-renderer (WORK/woven/data)")
@@ -37,7 +37,7 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=2000)
     parser.add_argument("--fabrics", type=int, default=320)
     args = parser.parse_args()
-    config = data.DataConfig(fabrics=args.fabrics)
+    config = train.DataConfig(fabrics=args.fabrics)
     dataset = train.Dataset(args.data, config)
     out = {"steps": args.steps, "queries": int(len(dataset.inputs)),
            "prefilter_only": train.evaluate(None, dataset, dataset.held_materials, baseline_only=True)}

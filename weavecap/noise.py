@@ -15,7 +15,6 @@ The fit samples frequencies with probability proportional to power and fits scik
 from __future__ import annotations
 
 import numpy as np
-from sklearn.mixture import GaussianMixture
 
 SAMPLES = 4000  # frequency samples drawn from the power spectrum for the mixture fit
 MIN_VARIANCE = 1e-10  # below this the residual is treated as noise-free
@@ -63,6 +62,8 @@ def fit_noise(residual: np.ndarray, *, pitch_px: float, components: int = 4, see
     pts = np.stack([fy.ravel()[idx] + rng.uniform(-dy / 2, dy / 2, SAMPLES),
                     fx.ravel()[idx] + rng.uniform(-dx / 2, dx / 2, SAMPLES)], axis=1)
     k = int(max(1, min(components, len(np.unique(idx)))))
+    from sklearn.mixture import GaussianMixture  # here: importing scikit-learn takes seconds a render would pay
+
     gmm = GaussianMixture(n_components=k, covariance_type="full", reg_covar=max(dy, dx) ** 2 / 12,
                           random_state=seed).fit(pts)
     gaussians = [{"weight": float(w * variance), "mean": [float(v) for v in m],

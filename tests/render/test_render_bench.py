@@ -1,4 +1,4 @@
-"""The render bench (weavecap.render.bench, ``weavecap bench --render``): its sections measure
+"""The render bench (weavecap.bench.render, ``weavecap bench --render``): its sections measure
 what they say, side by side, and report it as tables; other renderers can add sections."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ from click.testing import CliRunner
 
 from weavecap.cli.main import cli
 from weavecap.fixtures import path as fixture_path
-from weavecap.render import bench
+from weavecap.bench import render as bench
 
 
 @pytest.fixture

@@ -140,7 +140,7 @@ def test_several_params_render_into_a_folder_with_a_contact_sheet_and_json(tmp_p
     doc = json.loads(result.stdout)
     assert [i["output"] for i in doc["images"]] == [str(out / n / "render.png") for n in names]
     for name, item in zip(names, doc["images"]):
-        assert item["mode"] == "neural" and item["spp"] == 2 and item["pitch_source"] == "default"
+        assert item["mode"] == "direct" and item["spp"] == 2 and item["pitch_source"] == "default"
         record = json.loads((out / name / "render.json").read_text())
         assert record["timings_s"]["render"] > 0 and any("pitch" in n for n in record["notes"])
         assert Path(item["output"]).is_file()

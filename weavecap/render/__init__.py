@@ -6,5 +6,7 @@
   :mod:`.shapes` makes the procedural fixture shapes;
 - :mod:`.scene` frames a camera and lights a mesh; :mod:`.integrator` path-traces it;
   :mod:`.modes` is the table of render modes and hooks other renderers plug into;
-- :mod:`.run` orders the stages for ``weavecap render``; :mod:`.bench` measures them.
+- :mod:`.direct` is the direct-light integrator of ``--mode direct`` (the default) and ``neural``;
+  :mod:`.bake_cache` keeps bakes between runs; :mod:`.garments` makes the render bench's garments;
+- :mod:`.run` orders the stages for ``weavecap render``; :mod:`weavecap.bench.render` measures them.
 """

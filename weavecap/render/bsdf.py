@@ -48,6 +48,15 @@ MIN_FACING = 0.02  # a mapped normal is bent until the viewer sees it at least t
 AMBIENT = "ambient"  # the attribute :mod:`weavecap.render.integrator` asks for the rigs' ambient term
 
 
+def opaque(value: float):
+    """A Dr.Jit Float held in memory rather than compiled into a kernel as a constant: a
+    kernel that reads it serves every value (a new fabric, pitch or texel count compiles
+    nothing), where a Python float would be a new kernel each time."""
+    v = mi.Float(float(value))
+    dr.make_opaque(v)
+    return v
+
+
 @dataclass(frozen=True)
 class Placement:
     """How the fabric lies on a mesh's texture coordinates.
@@ -143,7 +152,7 @@ class SurfaceTextures:
 
     def __init__(self, maps: SurfaceMaps, noise: NoiseMap | None = None, *, linear: bool = True):
         self.maps = maps
-        self.rows = maps.shape[0]
+        self.rows = opaque(maps.shape[0])
         self.linear = linear
         mode = dr.FilterMode.Linear if linear else dr.FilterMode.Nearest
         data = _channels(maps)
@@ -156,7 +165,7 @@ class SurfaceTextures:
         if noise is not None:
             self.noise = mi.Texture2f(mi.TensorXf(noise.gain[..., None]), filter_mode=dr.FilterMode.Linear,
                                       wrap_mode=dr.WrapMode.Repeat)
-            self.noise_repeats = float(noise.repeats)
+            self.noise_repeats = opaque(noise.repeats)
 
     def coverage(self, s, t):
         """The coverage (opacity) at fabric coordinates ``(s, t)``: one texture read."""
@@ -167,8 +176,8 @@ class SurfaceTextures:
         along +v) on the face (``back`` False) or the back (Bool) of the fabric."""
         rows = self.rows
         y_in = -t - dr.floor(-t)  # image rows run down, v up
-        side = dr.select(back, float(rows + 2), 0.0)
-        pos = mi.Point2f(s, (side + 1.0 + y_in * rows) / (2.0 * (rows + 2)))
+        side = dr.select(back, rows + 2.0, 0.0)
+        pos = mi.Point2f(s, (side + 1.0 + y_in * rows) / (2.0 * (rows + 2.0)))
         values = [x for tex in self.textures[:2] for x in tex.eval(pos)]  # the first 8 channels
         c = dict(zip(CHANNELS, values))
         nx, ny = c["normal_x"], c["normal_y"]
@@ -316,7 +325,10 @@ class SurfaceBSDF(mi.BSDF):
         self.textures = SurfaceTextures(maps, noise, linear=linear)
         self.placement = placement
         theta = math.radians(placement.angle_deg)
-        self._cos, self._sin = math.cos(theta), math.sin(theta)
+        # read from memory, not compiled in: a new fabric, pitch or angle reuses the kernels
+        self._cos, self._sin = opaque(math.cos(theta)), opaque(math.sin(theta))
+        self._per_repeat = (opaque(1.0 / placement.repeat_size[0]), opaque(1.0 / placement.repeat_size[1]))
+        self._offset = (opaque(placement.offset[0]), opaque(placement.offset[1]))
         reflection = (mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.DiffuseReflection
                       | mi.BSDFFlags.FrontSide | mi.BSDFFlags.BackSide)
         transmission = (mi.BSDFFlags.GlossyTransmission | mi.BSDFFlags.DiffuseTransmission | mi.BSDFFlags.Null
@@ -337,10 +349,9 @@ class SurfaceBSDF(mi.BSDF):
 
     def _fabric_uv(self, si):
         """The hit's fabric coordinates (s, t), in repeats."""
-        pl = self.placement
         c, s = self._cos, self._sin
-        fs = (c * si.uv.x + s * si.uv.y) / pl.repeat_size[0] + pl.offset[0]
-        ft = (-s * si.uv.x + c * si.uv.y) / pl.repeat_size[1] + pl.offset[1]
+        fs = (c * si.uv.x + s * si.uv.y) * self._per_repeat[0] + self._offset[0]
+        ft = (-s * si.uv.x + c * si.uv.y) * self._per_repeat[1] + self._offset[1]
         return fs, ft
 
     def point(self, si) -> tuple[SurfacePoint, object]:

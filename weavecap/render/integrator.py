@@ -57,14 +57,60 @@ class FabricPathIntegrator(mi.SamplingIntegrator):
         self.max_depth = max_depth if max_depth >= 0 else 2**31 - 1
         self.rr_depth = int(props.get("rr_depth", 5))
         self.ambient = float(props.get("ambient", 0.0))
+        self.ambient_radiance = mi.Float(self.ambient)  # read from memory: every rig shares the kernels
         self.has_background = "background" in props
         background = props.get("background", 0.0)
         self.background = mi.Color3f(*background) if hasattr(background, "__len__") else mi.Color3f(float(background))
+        dr.make_opaque(self.ambient_radiance, self.background)
+
+    @staticmethod
+    def _bsdfs(scene) -> tuple[list, bool]:
+        """The scene's :class:`weavecap.render.bsdf.SurfaceBSDF` instances (the neural one
+        included), whose methods :meth:`_call` traces inline, and whether every shape has one."""
+        from .bsdf import SurfaceBSDF
+
+        found, only = [], True
+        for shape in scene.shapes():
+            bsdf = shape.bsdf()
+            if not isinstance(bsdf, SurfaceBSDF):
+                only = False
+            elif not any(bsdf is b for b in found):
+                found.append(bsdf)
+        return found, only
+
+    @staticmethod
+    def _call(bsdfs, bsdf, active, method: str, *args):
+        """``bsdf.method(*args, active)`` for the hits' BSDFs (``bsdfs`` from :meth:`_bsdfs`):
+        a surface BSDF's Python method traced inline, any other BSDF by Mitsuba's virtual call.
+
+        Mitsuba's virtual call traces the method of *every* BSDF instance alive in the process
+        into the kernel, masked-off bodies included: the neural decoder ran 7.5× slower that
+        way, and in a process that had made other renders (a batch, the tests) each new render
+        compiled the bodies of every BSDF still alive — a new, ever larger kernel each time.
+        A scene whose only BSDF is one surface BSDF (a garment, without ``--ground``) makes
+        no call at all, and no instance's address enters its kernel, so the next render of
+        another fabric reuses it."""
+        instances, only = bsdfs
+        active = mi.Bool(active)
+        if only and len(instances) == 1:
+            return getattr(instances[0], method)(*args, active)
+        other = mi.Bool(active)
+        out = None
+        for b in instances:
+            mine = active & (bsdf == mi.BSDFPtr(b))
+            other &= ~mine
+            value = getattr(b, method)(*args, mine)
+            out = value if out is None else dr.select(mine, value, out)
+        if only and out is not None:
+            return out
+        value = getattr(bsdf, method)(*args, other)
+        return value if out is None else dr.select(other, value, out)
 
     @dr.syntax
-    def transmittance(self, scene, si, ds, active):
+    def transmittance(self, scene, si, ds, active, bsdfs=None):
         """Light reaching ``si`` from the emitter sample ``ds`` through the gaps on the way
         (Color3f; 0 when an opaque surface is in the way)."""
+        bsdfs = bsdfs if bsdfs is not None else self._bsdfs(scene)
         ray = si.spawn_ray(ds.d)
         ray.maxt = dr.select(dr.isfinite(ds.dist), ds.dist * (1.0 - mi.math.ShadowEpsilon), dr.largest(mi.Float))
         throughput = mi.Color3f(1.0)
@@ -73,7 +119,7 @@ class FabricPathIntegrator(mi.SamplingIntegrator):
         while active:
             hit = scene.ray_intersect(ray, mi.RayFlags.Minimal | mi.RayFlags.UV, False, active)
             blocked = active & hit.is_valid()
-            null = hit.bsdf(ray).eval_null_transmission(hit, blocked)
+            null = self._call(bsdfs, hit.bsdf(ray), blocked, "eval_null_transmission", hit)
             throughput = dr.select(blocked, throughput * null, throughput)
             crossings += 1
             remaining = ray.maxt - hit.t
@@ -85,6 +131,7 @@ class FabricPathIntegrator(mi.SamplingIntegrator):
     @dr.syntax
     def sample(self, scene, sampler, ray, medium=None, active=True):
         ctx = mi.BSDFContext()
+        bsdfs = self._bsdfs(scene)
         ray = mi.Ray3f(ray)
         L = mi.Color3f(0.0)
         beta = mi.Color3f(1.0)
@@ -109,7 +156,7 @@ class FabricPathIntegrator(mi.SamplingIntegrator):
 
             # a gap: go straight on with probability of the null transmission
             bsdf = si.bsdf(ray)
-            t_null = dr.clip(_grey(bsdf.eval_null_transmission(si, valid)), 0.0, 1.0)
+            t_null = dr.clip(_grey(self._call(bsdfs, bsdf, valid, "eval_null_transmission", si)), 0.0, 1.0)
             null = valid & (sampler.next_1d(valid) < t_null) & (nulls < MAX_NULL)
             surface = valid & ~null
             beta = dr.select(surface, beta / dr.maximum(1.0 - t_null, 1e-6), beta)
@@ -119,21 +166,23 @@ class FabricPathIntegrator(mi.SamplingIntegrator):
             em_active = active_next
             ds_em, em_weight = scene.sample_emitter_direction(si, sampler.next_2d(em_active), False, em_active)
             em_active &= ds_em.pdf != 0.0
-            seen = self.transmittance(scene, si, ds_em, em_active)
+            seen = self.transmittance(scene, si, ds_em, em_active, bsdfs)
             wo = si.to_local(ds_em.d)
-            bsdf_value, bsdf_pdf = bsdf.eval_pdf(ctx, si, wo, em_active)
+            bsdf_value, bsdf_pdf = self._call(bsdfs, bsdf, em_active, "eval_pdf", ctx, si, wo)
             mis_em = dr.select(ds_em.delta, 1.0, _mis(ds_em.pdf, bsdf_pdf))
             L += dr.select(em_active, beta * mis_em * bsdf_value * em_weight * seen, 0.0)
 
             # BSDF sampling
-            bs, weight = bsdf.sample(ctx, si, sampler.next_1d(active_next), sampler.next_2d(active_next), active_next)
+            bs, weight = self._call(bsdfs, bsdf, active_next, "sample", ctx, si, sampler.next_1d(active_next),
+                                    sampler.next_2d(active_next))
 
             # the capture rigs' ambient term: the BSDF's own (the surface model's: albedo ×
             # the forward model's occlusion), else a one-sample estimate of its albedo
             if dr.hint(self.ambient > 0.0, mode="scalar"):
-                own = bsdf.has_attribute(AMBIENT, active_next)
-                albedo = dr.select(own, bsdf.eval_attribute_3(AMBIENT, si, active_next & own), weight)
-                L += dr.select(active_next, beta * self.ambient * albedo, 0.0)
+                own = self._call(bsdfs, bsdf, active_next, "has_attribute", AMBIENT)
+                albedo = dr.select(own, self._call(bsdfs, bsdf, active_next & own, "eval_attribute_3", AMBIENT, si),
+                                   weight)
+                L += dr.select(active_next, beta * self.ambient_radiance * albedo, 0.0)
             beta = dr.select(active_next, beta * weight, beta)
             prev_si = dr.select(active_next, si, prev_si)
             prev_pdf = dr.select(active_next, bs.pdf, prev_pdf)

@@ -6,8 +6,9 @@ here. Two are built in:
 
 - ``reference``: path tracing of the surface model (:mod:`weavecap.render.integrator`,
   ``max_depth`` vertices, Russian roulette) — the ground truth the neural renderers learn;
-- ``direct``: the same with one bounce (direct lighting only), the baseline both neural
-  papers compare with.
+- ``direct``: one bounce of the same surface model (direct lighting only), the baseline both
+  neural papers compare with: :mod:`weavecap.render.direct`, every light at every sample,
+  stratified camera samples.
 
 Other renderers add theirs without editing this module: a package listed in PLUGINS (the
 woven renderer's ``weavecap.render.woven``, the fold renderer's ``weavecap.render.fold``) is
@@ -32,6 +33,16 @@ from typing import Callable
 
 from ..errors import InputError
 
+#: ``weavecap render``'s mode when none is given: the surface model's direct light, adaptive
+#: spp — right under every light, where the neural renderer is not yet (docs/render.md, *Modes*)
+DEFAULT_MODE = "direct"
+#: ``weavecap render --help``'s words on the modes and their samples a pixel
+MODE_HELP = ("direct: direct lighting (one bounce) of the surface model, every light at every sample, samples until "
+             "the noise is below what shows; reference: path tracing of the surface model; neural: the woven neural "
+             "BSDF at each pixel's footprint, direct light (Chen et al. 2024; a few samples a pixel at any distance, "
+             "its colours a few percent darker: docs/woven.md).")
+SPP_HELP = ("Samples per pixel  [default: direct until the noise is below 1 L*, at most 512; neural 4 (a 2x2 grid of "
+            "footprints); reference 64]")
 #: optional packages that register modes and fold terms when imported (absent ones are skipped)
 PLUGINS = ("weavecap.render.woven", "weavecap.render.fold")
 FOLD_CHOICES = ("auto", "on", "off")
@@ -50,7 +61,8 @@ class Mode:
     fold : whether ``--fold auto`` adds a fold term to this mode's renders
     sampler : the camera's sampler (a ``load_dict`` dict without ``sample_count``), default
         Mitsuba's ``independent``
-    spp : samples per pixel when ``--spp`` is not given
+    spp : samples per pixel when ``--spp`` is not given (None: until the noise is below what
+        shows, :func:`weavecap.render.run.adaptive_passes`)
     """
 
     name: str
@@ -59,7 +71,7 @@ class Mode:
     integrator: Callable
     fold: bool = False
     sampler: dict | None = None
-    spp: int = 64
+    spp: int | None = 64
 
 
 @dataclass(frozen=True)
@@ -146,20 +158,37 @@ def _surface_bsdf(fabric, maps, placement, noise, linear):
     return SurfaceBSDF(fabric, maps, placement, noise, linear=linear)
 
 
+def with_lighting(props: dict, lighting) -> dict:
+    """An integrator's ``load_dict`` properties with the capture rigs' ``ambient`` radiance and
+    ``background`` (:class:`weavecap.render.scene.Lighting`), where the lights have them."""
+    if lighting.ambient:
+        props["ambient"] = float(lighting.ambient)
+    if lighting.background is not None:
+        props["background"] = float(lighting.background)
+    return props
+
+
 def _path(max_depth: int | None):
     def integrator(lighting, options) -> dict:
         from . import integrator as _integrator  # noqa: F401  (registers "weavecap_path")
 
-        props = {"type": "weavecap_path", "max_depth": int(max_depth or options.max_depth), "rr_depth": 5}
-        if lighting.ambient:
-            props["ambient"] = float(lighting.ambient)
-        if lighting.background is not None:
-            props["background"] = float(lighting.background)
-        return props
+        return with_lighting({"type": "weavecap_path", "max_depth": int(max_depth or options.max_depth), "rr_depth": 5},
+                             lighting)
     return integrator
 
 
 register_mode(Mode("reference", "path tracing of the surface model (max depth, Russian roulette)",
                    bsdf=_surface_bsdf, integrator=_path(None)))
-register_mode(Mode("direct", "direct lighting only (one bounce) of the surface model",
-                   bsdf=_surface_bsdf, integrator=_path(2), fold=True))
+def direct_integrator(lighting, options) -> dict:
+    """The one-bounce integrator of :mod:`weavecap.render.direct` (``direct`` and ``neural``)."""
+    from . import direct as _direct_integrator  # noqa: F401  (registers "fabric_direct")
+
+    return with_lighting({"type": "fabric_direct"}, lighting)
+
+
+#: stratified camera samples (a jittered grid of sub-pixels a pass): the weave under a pixel
+#: is integrated faster than by independent samples
+STRATIFIED = {"type": "multijitter"}
+
+register_mode(Mode("direct", "direct lighting only (one bounce) of the surface model, every light at every sample",
+                   bsdf=_surface_bsdf, integrator=direct_integrator, fold=True, sampler=STRATIFIED, spp=None))

@@ -146,12 +146,12 @@ def noise_map(fabric: Fabric, *, texels_per_yarn: int = NOISE_TEXELS_PER_YARN, s
     """The fabric's §6.3 noise (``params.noise``) synthesized over a few repeats, or None
     when it has none. ``level`` is measured: the mean of a forward-model render of one repeat
     under the capture rig ``both`` (what the fit compared with)."""
-    from ..model.render import render_numpy
-    from ..model.scene import View, build_scene
-    from ..noise import synthesize
-
     if not fabric.noise or not fabric.noise.get("gaussians"):
         return None
+    from ..model.render import render_numpy
+    from ..model.scene import View, build_scene
+    from ..noise import synthesize  # (after the test: importing it takes seconds)
+
     n_e, n_a = fabric.shape
     t = int(texels_per_yarn)
     repeats = int(max(1, min(NOISE_REPEATS, NOISE_MAX_TEXELS // (max(n_e, n_a) * t))))

@@ -2,9 +2,9 @@
 training and its held-out errors, then the weights with their record.
 
 - the woven neural renderer (Chen et al. 2024): footprint-filtered BSDF data of random fabrics
-  (:mod:`weavecap.render.woven.data`) and its network (:mod:`weavecap.render.woven.train`);
+  and its network (:mod:`.woven`);
 - the fold renderer (Son et al.): LocalPT on the procedural fold suite and the BLIDF
-  (:mod:`weavecap.render.fold.training`).
+  (:mod:`.fold`).
 
 Each keeps its data and checkpoints in its own folder of the work folder (``WORK/woven``,
 ``WORK/fold``), claimed for its settings (:func:`weavecap.training.work.claim_work_folder`),
@@ -13,7 +13,6 @@ so an interrupted run resumes from what is there.
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
@@ -55,24 +54,15 @@ def _woven(work: Path, out: Path, fabrics: int, steps: int, seed: int, say: Prog
     """The woven neural renderer's part (Chen et al. 2024): data, training, held-out errors."""
     from dataclasses import asdict
 
-    from ..render.woven import data as woven_data
-    from ..render.woven import train as woven_train
+    from . import woven as woven_train
 
-    data_config = woven_data.DataConfig(fabrics=fabrics, seed=seed)
+    data_config = woven_train.DataConfig(fabrics=fabrics, seed=seed)
     train_config = woven_train.TrainConfig(steps=steps, seed=seed)
     folder = work / "woven"
     claim_work_folder(folder, {"data": asdict(data_config), "train": asdict(train_config)}, name="plan.json")
     say(f"woven: data for {fabrics} fabrics ({data_config.shards} shards) in {folder / 'data'}")
-    summary = woven_data.generate(folder / "data", data_config, progress=lambda d, t, m: progress(m))
-    # the time spent making the data, summed over the runs that made it (a resumed run adds its own)
-    timing = folder / "data_seconds.json"
-    runs = json.loads(timing.read_text())["runs"] if timing.exists() else []
-    if summary["shards_made"] or not runs:
-        runs.append({"seconds": summary["seconds"], "shards_made": summary["shards_made"]})
-    else:
-        runs[-1]["seconds"] += summary["seconds"]  # only the features/baseline pass was left
-    data_seconds = float(sum(r["seconds"] for r in runs))
-    timing.write_text(json.dumps({"seconds": data_seconds, "runs": runs}, indent=1) + "\n")
+    # the time spent making the data, over every run that made some of it (each shard keeps its own)
+    data_seconds = woven_train.generate(folder / "data", data_config, progress=lambda m: progress(f"woven: {m}"))
     dataset = woven_train.Dataset(folder / "data", data_config)
     say(f"woven: training {steps} steps on {len(dataset.inputs)} queries of {len(dataset.train_materials)} "
         f"materials ({len(dataset.held_materials)} held out)")
@@ -100,7 +90,7 @@ def _fold_targets(out_dir: Path | None) -> list[Path]:
 def _fold(work: Path, out: Path, lights: int, per_light: int, epochs: int, seed: int, say: Progress,
           progress: Progress) -> None:
     """The fold renderer's part (Son et al.): LocalPT data on the fold suite, the BLIDF, held-out errors."""
-    from ..render.fold import training
+    from . import fold as training
 
     # blocks of 8 lights (at most half of them, so that one block is held out and one trained on)
     config = training.TrainConfig(seed=seed, lights=lights, per_light=per_light, epochs=epochs,

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from weavecap.render.fold import bench
+from weavecap.bench import fold as bench
 
 
 def test_mask_and_rmse_see_only_the_garment():

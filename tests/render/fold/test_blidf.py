@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from weavecap.render.fold import blidf as B
-from weavecap.render.fold import training as T
+from weavecap.training import fold as T
 from weavecap.render.fold.descriptors import Descriptors, compute_descriptors
 
 from .shapes import heightfield

@@ -154,6 +154,17 @@ def test_fold_radius_is_the_width_of_one_fold():
         assert r.value == pytest.approx(np.linalg.norm(np.ptp(v, axis=0)) / 10)
 
 
+def test_pleats_deeper_than_wide_get_the_width_of_one_pleat():
+    """60 mm deep pleats 36 mm apart: the mean curvature never dips (the corners that curve
+    opposite ways are a wall's depth apart) and r used to be a tenth of the curtain (78 mm, four
+    pleats); the walls' normals alternate every pleat."""
+    from weavecap.render.garments import pleated_curtain
+
+    curtain = pleated_curtain(pleats=14, depth=0.06, width=0.5)
+    r = D.fold_radius(curtain.positions, curtain.faces)
+    assert "normals" in r.how and 0.5 * 0.036 < r.value < 0.8 * 0.036, r  # measured 22.8 mm (0.63 of a pleat)
+
+
 def test_degenerate_meshes_give_finite_descriptors():
     v, f = heightfield(lambda x, y: 0.1 * np.sin(6 * x), n=21)
     cases = {

@@ -9,7 +9,7 @@ import pytest
 from click.testing import CliRunner
 
 from weavecap.render.fold import blidf as B
-from weavecap.render.fold import training as T
+from weavecap.training import fold as T
 
 
 TINY = T.TrainConfig(pool=40, lights=4, per_light=12, block=2, hat_points=2, paths=4, neighbours=8, epochs=2,

@@ -8,7 +8,7 @@ import torch
 
 from weavecap.render.woven import network as net
 from weavecap.render.woven import terms
-from weavecap.render.woven.data import ENCODER_CHANNELS, ENCODER_SIZE, N_PARAMS
+from weavecap.render.woven.encoding import ENCODER_CHANNELS, ENCODER_SIZE, N_PARAMS
 from weavecap.render.woven.footprint import FEATURES
 
 

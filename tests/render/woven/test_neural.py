@@ -10,7 +10,8 @@ import torch
 from weavecap import params
 from weavecap.fixtures import path as fixture_path
 from weavecap.render.surface import bake
-from weavecap.render.woven import bench, infer
+from weavecap.bench import woven as bench
+from weavecap.render.woven import infer
 from weavecap.render.woven import network as net
 from weavecap.render.woven import terms
 from weavecap.render.woven.bsdf import NeuralSurfaceBSDF, shared_model

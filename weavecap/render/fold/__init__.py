@@ -7,7 +7,7 @@
   hit (§4.2, the BLIDF's ground truth), as a Mitsuba integrator;
 - :mod:`.visibility` — neighbourhood visibility V̄ (§2): sampled, or ASG lobes;
 - :mod:`.blidf` — the BLIDF network S_θ (factorised intensity × spherical harmonics);
-- :mod:`.training` — its training data (LocalPT on the procedural fold suite) and training;
+- :mod:`weavecap.training.fold` — its training data (LocalPT on the procedural fold suite) and training;
 - :mod:`.term` — the fold term of ``weavecap render`` (registered here, at import).
 
 ``weavecap.render.modes`` imports this package when a render asks for a fold term.

@@ -32,8 +32,8 @@ gain is factorised (supplement §3.1, Table 3, "Factorized, SH (Ord 3)"):
 - φ_L (2): cos between ω_i and the side's normal n, and between ω_i and its n_N;
 - φ_M (1): the neighbourhood's albedo in the channel (the network runs once per channel).
 
-Evaluation is plain numpy (no torch at render time); :mod:`.training` fits the same network in
-torch and writes its arrays to a JSON file (no pickle).
+Evaluation is plain numpy (no torch at render time); :mod:`weavecap.training.fold` fits the same
+network in torch and writes its arrays to a JSON file (no pickle).
 """
 
 from __future__ import annotations

@@ -8,11 +8,13 @@ split into colour-free channels the colours multiply (so colours change without 
 - :mod:`.terms` splits :func:`weavecap.render.bsdf.eval_surface` into those channels (exact);
 - :mod:`.footprint` filters periodic maps over boxes (summed-area tables) and makes the
   prefiltered guess the decoder corrects;
-- :mod:`.data` makes the training data, :mod:`.network` is the PyTorch network and its losses,
-  :mod:`.train` trains it (resumable) and measures its held-out errors;
-- :mod:`.infer` (encoder once, Dr.Jit decoder), :mod:`.bsdf` (the Mitsuba BSDF at the
-  footprint) and :mod:`.integrator` (one sample a pixel, direct light) render with it;
-- :mod:`.bench` is its section of ``weavecap bench --render``.
+- :mod:`.encoding` is what the encoder is given, :mod:`.network` is the PyTorch network and
+  its losses; :mod:`weavecap.training.woven` makes the training data, trains it (resumable) and
+  measures its held-out errors;
+- :mod:`.infer` (encoder once, Dr.Jit decoder) and :mod:`.bsdf` (the Mitsuba BSDF at the
+  footprint) render with it, through the direct-light integrator of
+  :mod:`weavecap.render.direct` (its methods traced inline; the camera at pixel centres);
+- :mod:`weavecap.bench.woven` is its section of ``weavecap bench --render``.
 
 Importing this package registers the ``neural`` mode of ``weavecap render``
 (:mod:`weavecap.render.modes`); it loads no Mitsuba, Dr.Jit or PyTorch until a render asks.
@@ -32,22 +34,11 @@ def _neural_bsdf(fabric, maps, placement, noise, linear):
     return NeuralSurfaceBSDF(fabric, maps, placement, noise)
 
 
-def _neural_integrator(lighting, options) -> dict:
-    from . import integrator as _integrator  # noqa: F401  (registers "woven_direct")
-
-    props = {"type": "woven_direct"}
-    if lighting.ambient:
-        props["ambient"] = float(lighting.ambient)
-    if lighting.background is not None:
-        props["background"] = float(lighting.background)
-    return props
-
-
 def _register() -> None:
-    from ..modes import Mode, register_mode
+    from ..modes import Mode, direct_integrator, register_mode
 
-    register_mode(Mode("neural", "woven neural BSDF at the pixel's footprint, one sample a pixel (Chen et al. 2024)",
-                       bsdf=_neural_bsdf, integrator=_neural_integrator, fold=True, sampler=PIXEL_CENTRES, spp=1))
+    register_mode(Mode("neural", "woven neural BSDF at the pixel's footprint (Chen et al. 2024), direct light",
+                       bsdf=_neural_bsdf, integrator=direct_integrator, fold=True, sampler=PIXEL_CENTRES, spp=4))
 
 
 _register()

@@ -27,7 +27,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...params import Fabric
-from ..bsdf import AMBIENT, Placement, SurfaceBSDF, SurfacePoint, ambient_surface, shading_of
+from ..bsdf import AMBIENT, Placement, SurfaceBSDF, SurfacePoint, ambient_surface, opaque, shading_of
 from ..surface import NoiseMap, SurfaceMaps
 from . import terms as _terms
 from .footprint import baseline_channels, filtered_point
@@ -68,8 +68,13 @@ class NeuralSurfaceBSDF(SurfaceBSDF):
         self.noise = None
         if noise is not None:
             self.noise = BoxFilter([noise.gain[..., None]])
-            self.noise_repeats = float(noise.repeats)
+            self.noise_repeats = opaque(noise.repeats)
         self.pattern_shape = fabric.shape
+        n_e, n_a = fabric.shape
+        self._yarns = opaque(n_a * n_e)  # yarns² in a repeat (footprint areas in yarn pitches²)
+        self._warps = opaque(n_a)
+        self._map_size = (opaque(maps.shape[0]), opaque(maps.shape[1]))
+        self._texels_per_yarn = opaque(maps.texels_per_yarn)
         self.set_fabric(fabric)
 
     # -- editing ------------------------------------------------------------------------------
@@ -97,9 +102,8 @@ class NeuralSurfaceBSDF(SurfaceBSDF):
 
     def _repeats(self, u, v):
         """A UV vector (mesh units) in repeats along the fabric's s and t (no offset)."""
-        pl = self.placement
         c, s = self._cos, self._sin
-        return (c * u + s * v) / pl.repeat_size[0], (-s * u + c * v) / pl.repeat_size[1]
+        return (c * u + s * v) * self._per_repeat[0], (-s * u + c * v) * self._per_repeat[1]
 
     def footprint(self, si):
         """(s, t, size): the hit's fabric coordinates (repeats) and its footprint's side in
@@ -107,22 +111,20 @@ class NeuralSurfaceBSDF(SurfaceBSDF):
         fs, ft = self._fabric_uv(si)
         dsx, dtx = self._repeats(si.duv_dx.x, si.duv_dx.y)
         dsy, dty = self._repeats(si.duv_dy.x, si.duv_dy.y)
-        n_e, n_a = self.pattern_shape
-        area = dr.abs(dsx * dty - dsy * dtx) * (n_a * n_e)
+        area = dr.abs(dsx * dty - dsy * dtx) * self._yarns
         size = dr.sqrt(area)
         return fs, ft, dr.select(dr.isfinite(size), size, 0.0)
 
     def _texel(self, s, t, size):
-        h, w = self.maps.shape
-        return s * w, -t * h, 0.5 * size * self.maps.texels_per_yarn
+        h, w = self._map_size
+        return s * w, -t * h, 0.5 * size * self._texels_per_yarn
 
     def _gain(self, s, t, size):
         if self.noise is None:
             return mi.Float(1.0)
-        h, w = self.noise.shape
+        h, w = self.noise.size
         r = self.noise_repeats
-        n_e, n_a = self.pattern_shape
-        return self.noise.mean(s / r * w, -t / r * h, 0.5 * size * w / (r * n_a))[0]
+        return self.noise.mean(s / r * w, -t / r * h, 0.5 * size * w / (r * self._warps))[0]
 
     # -- values -------------------------------------------------------------------------------
 

@@ -13,7 +13,7 @@ is taken out first (the table then stays near zero and float32 keeps its precisi
 ``S(W, H) = 0``). Coordinates: ``x`` along the map's columns (``u · W``), ``y`` along its rows
 (down the image, ``(1 - v) · H``), texel ``(r, c)`` covering ``[c, c+1) × [r, r+1)``.
 
-The training data (:mod:`.data`) takes every footprint of one (ω_i, ω_o) pair from one table;
+The training data (:mod:`weavecap.training.woven`) takes every footprint of one (ω_i, ω_o) pair from one table;
 the renderer (:mod:`.infer`) looks up the tables of the map statistics (:func:`feature_image`)
 the decoder is given.
 """

@@ -22,10 +22,11 @@ from pathlib import Path
 
 import numpy as np
 
+from ..bsdf import opaque
 from ..surface import BACK, FACE, SurfaceMaps
 from . import network as _net
 from . import terms as _terms
-from .data import encoder_image, encoder_params
+from .encoding import encoder_image, encoder_params
 from .footprint import MIN_HALF_TEXELS, feature_image, periodic_sat
 
 WEIGHTS = "woven.npz"
@@ -122,23 +123,25 @@ class BoxFilter:
                                   filter_mode=dr.FilterMode.Linear, wrap_mode=dr.WrapMode.Clamp)
         self.image = mi.Texture2f(mi.TensorXf(np.ascontiguousarray(np.concatenate(padded), dtype=np.float32)),
                                   filter_mode=dr.FilterMode.Linear, wrap_mode=dr.WrapMode.Repeat)
-        self.means = [[float(m) for m in mean] for mean in means]
+        # read from memory, not compiled in: another fabric or texel count reuses the kernels
+        self.size = tuple(opaque(n) for n in self.shape)
+        self.means = [[opaque(m) for m in mean] for mean in means]
 
     def _table(self, x, y, row0, active):
         """The stacked table at node coordinates (x, y) of the side starting at ``row0``."""
         mi, _ = _backend()
-        h, w = self.shape
-        pos = mi.Point2f((x + 0.5) / (w + 1), (row0 + y + 0.5) / (self.sides * (h + 1)))
+        h, w = self.size
+        pos = mi.Point2f((x + 0.5) / (w + 1.0), (row0 + y + 0.5) / (self.sides * (h + 1.0)))
         return self.table.eval(pos, active)
 
     def _extended(self, x, y, row0, active):
         mi, dr = _backend()
-        h, w = self.shape
+        h, w = self.size
         qx, qy = dr.floor(x / w), dr.floor(y / h)
         rx, ry = x - qx * w, y - qy * h
         base = self._table(rx, ry, row0, active)
-        col = self._table(mi.Float(float(w)), ry, row0, active & (qx != 0.0))
-        row = self._table(rx, mi.Float(float(h)), row0, active & (qy != 0.0))
+        col = self._table(mi.Float(w), ry, row0, active & (qx != 0.0))
+        row = self._table(rx, mi.Float(h), row0, active & (qy != 0.0))
         return [b + dr.select(qx != 0.0, qx * c, 0.0) + dr.select(qy != 0.0, qy * r, 0.0)
                 for b, c, r in zip(base, col, row)]
 
@@ -146,7 +149,7 @@ class BoxFilter:
         """Box means (list of C Floats) at texel coordinates (x, y), half side ``half``
         (texels); ``side``: Bool, True for the second image (the back)."""
         mi, dr = _backend()
-        h, w = self.shape
+        h, w = self.size
         active = mi.Bool(active)
         back = mi.Bool(False) if side is None or self.sides == 1 else side
         x = x - dr.floor(x / w) * w
@@ -154,13 +157,13 @@ class BoxFilter:
         point = half < MIN_HALF_TEXELS
         half = dr.maximum(half, MIN_HALF_TEXELS)
         box = active & ~point
-        row0 = dr.select(back, float(h + 1), 0.0)
+        row0 = dr.select(back, h + 1.0, 0.0)
         s11 = self._extended(x + half, y + half, row0, box)
         s01 = self._extended(x - half, y + half, row0, box)
         s10 = self._extended(x + half, y - half, row0, box)
         s00 = self._extended(x - half, y - half, row0, box)
-        pad_row0 = dr.select(back, float(h + 2), 0.0)
-        at = self.image.eval(mi.Point2f(x / w, (pad_row0 + 1.0 + y) / (self.sides * (h + 2))), active & point)
+        pad_row0 = dr.select(back, h + 2.0, 0.0)
+        at = self.image.eval(mi.Point2f(x / w, (pad_row0 + 1.0 + y) / (self.sides * (h + 2.0))), active & point)
         norm = 1.0 / (4.0 * half * half)
         out = []
         for c in range(self.channels):

@@ -1,10 +1,10 @@
 """The woven network (Chen et al. 2024, §4.2, Fig. 3) in PyTorch: encoder, decoder, losses.
 
-- **Encoder**: the repeat's maps (:func:`.data.encoder_image`: coverage, warp share, normal,
+- **Encoder**: the repeat's maps (:func:`.encoding.encoder_image`: coverage, warp share, normal,
   height, grooves, horizon, through — the paper's normal and orientation textures, and what our
   surface model adds) through a small ResNet (a stem and three stride-2 basic blocks, circular
   padding: the image is periodic), global mean pooling, concatenated with the non-colour
-  parameters (:data:`.data.ENCODER_PARAMS`), one residual block of two FC layers of 128, and
+  parameters (:data:`.encoding.ENCODER_PARAMS`), one residual block of two FC layers of 128, and
   a 64-d material latent ``z``. The paper uses a ResNet-18 without its last block; this one is
   ~8× smaller (measured in docs/woven.md).
 - **Decoder**: one-blob encoding (Müller et al. 2021) of the footprint's centre (periodic
@@ -31,7 +31,7 @@ import torch
 from torch import nn
 
 from . import terms as _terms
-from .data import ENCODER_CHANNELS, N_PARAMS
+from .encoding import ENCODER_CHANNELS, N_PARAMS
 from .footprint import FEATURES
 
 LATENT = 64

@@ -28,7 +28,7 @@ seconds per spp into our seconds, and its render at them is timed too (recorded 
 The rows keep every timing. *Seen* meshes are the *Seen* meshes are the
 fixture meshes of the shapes trained on (at the fixtures' own, coarser tessellation);
 *unseen*: the towel of ``../shared/meshes`` (without the head under it) and
-:func:`crumpled_sheet`, folds in random directions, made here.
+:func:`weavecap.render.garments.crumpled_sheet`, folds in random directions.
 
 The frame (:func:`frame_time`), on the towel and the skirt: one 1280×720 direct render at
 :data:`SPP`, without and with the fold term, in one process (as a user runs it, compiles and
@@ -49,8 +49,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ...fixtures import path as fixture_path
-from ..bench import SHARED_MESHES
+from ..fixtures import path as fixture_path
+from .render import SHARED_MESHES
+from ..render.garments import crumpled_sheet
 
 FABRIC = fixture_path("params", "satin_5.json")
 LIGHT = "sun"
@@ -68,27 +69,6 @@ AGREE = 0.10  # an equal-time race's timings are steady when two in a row agree 
 ROUNDS = 5  # timed rounds at most (then the median)
 
 
-def crumpled_sheet(size: float = 0.3, cells: int = 120, *, seed: int = 7):
-    """A sheet with folds in random directions (an unseen mesh): z = Σ_k A_k sin(2π x_k/λ_k) g_k,
-    eight ridges of random orientation, wavelength 3–7 cm and amplitude 2–7 mm, each under a
-    Gaussian window of 5–9 cm at a random place. Metres, faces counter-clockwise from +z."""
-    from ..shapes import Shape, _grid_faces
-
-    rng = np.random.default_rng(seed)
-    n = cells + 1
-    x, y = np.meshgrid(np.linspace(-size / 2, size / 2, n), np.linspace(-size / 2, size / 2, n))
-    z = np.zeros_like(x)
-    for _ in range(8):
-        theta, lam = rng.uniform(0, np.pi), rng.uniform(0.03, 0.07)
-        amp, width = rng.uniform(0.002, 0.007), rng.uniform(0.05, 0.09)
-        cx, cy = rng.uniform(-size / 3, size / 3, 2)
-        along = (x - cx) * np.cos(theta) + (y - cy) * np.sin(theta)
-        z += amp * np.sin(2 * np.pi * along / lam) * np.exp(-((x - cx) ** 2 + (y - cy) ** 2) / (2 * width**2))
-    positions = np.stack([x.ravel(), y.ravel(), z.ravel()], axis=1)
-    return Shape("crumpled", positions, _grid_faces(n, n), positions[:, :2] + size / 2,
-                 f"crumpled sheet {size * 100:g} cm, eight random folds (seed {seed})")
-
-
 def bench_meshes(quick: bool, folder: Path) -> list[tuple[str, Path, tuple, bool]]:
     """(name, path, view, seen) of every mesh measured."""
     out = []
@@ -99,15 +79,15 @@ def bench_meshes(quick: bool, folder: Path) -> list[tuple[str, Path, tuple, bool
     if towel.is_file() and not quick:
         out.append(("towel", towel.resolve(), UNSEEN["towel"], False))
     path = folder / "crumpled.obj"
-    path.write_text(crumpled_sheet().obj_text("weavecap.render.fold.bench.crumpled_sheet()"))
+    path.write_text(crumpled_sheet().obj_text("weavecap.render.garments.crumpled_sheet()"))
     out.append(("crumpled", path, UNSEEN["crumpled"], False))
     return out
 
 
 def _localpt_mode(radius: float):
     """A render mode of the surface model through LocalPT's local inter-reflection alone."""
-    from ..modes import MODES, Mode
-    from . import localpt  # noqa: F401  (registers "localpt")
+    from ..render.modes import MODES, Mode
+    from ..render.fold import localpt  # noqa: F401  (registers "localpt")
 
     return Mode("fold-localpt", "LocalPT, local inter-reflection only", bsdf=MODES["direct"].bsdf,
                 integrator=lambda lighting, options: {"type": "localpt", "radius": float(radius), "direct": False,
@@ -116,8 +96,8 @@ def _localpt_mode(radius: float):
 
 def _localpt_scene(fabric, mesh, options, radius: float):
     """``weavecap render``'s scene of ``options`` with LocalPT's local inter-reflection as its integrator."""
-    from .. import modes
-    from ..run import prepare_render
+    from ..render import modes
+    from ..render.run import prepare_render
 
     modes.register_mode(_localpt_mode(radius))
     try:
@@ -158,7 +138,7 @@ def _in_time(budget: float, scenes, seconds_per_spp: float, seed: int, announce=
     (H, W, 3) float64, spp, seconds taken). A last pass of fewer samples than ``run.PASS_SPP``
     is another kernel: it is compiled before the render is timed (crumpled sheet, 69 spp, 1.3 s
     cold against 0.4 s warm)."""
-    from ..run import PASS_SPP, render_passes
+    from ..render.run import PASS_SPP, render_passes
 
     spp = max(1, int(budget / seconds_per_spp))
     announce(spp)
@@ -178,8 +158,8 @@ def race(scene, local_scene, mesh, seed: int, progress=lambda m: None, label: st
     in the fold term's time for the local light alone. Returns the images (ours: direct at SPP
     and the fold term, seeds ``seed`` and 1; LocalPT's: direct + local, local alone, seeds
     ``seed`` + 1, + 2), the spp, and every timing."""
-    from ..run import render_passes
-    from . import term
+    from ..render.run import render_passes
+    from ..render.fold import term
 
     seconds, timings, out = steady_times({
         "direct": lambda: render_passes(scene, SPP, seed),
@@ -203,7 +183,7 @@ def _race_cells(r: dict) -> dict:
 
 
 def _render(fabric, mesh, options):
-    from ..run import render_fabric
+    from ..render.run import render_fabric
 
     t = time.perf_counter()
     result = render_fabric(fabric, mesh, options)
@@ -231,11 +211,11 @@ def rmse(a: np.ndarray, b: np.ndarray, mask: np.ndarray) -> float:
 
 def measure_mesh(name: str, path: Path, view, seen: bool, *, folder: Path, progress=None) -> dict:
     """Every image and error of one mesh (see the module docstring)."""
-    from ... import params
-    from ..mesh import load_mesh
-    from ..run import RenderOptions, prepare_render, render_passes
-    from . import term
-    from .descriptors import cached_descriptors
+    from .. import params
+    from ..render.mesh import load_mesh
+    from ..render.run import RenderOptions, prepare_render, render_passes
+    from ..render.fold import term
+    from ..render.fold.descriptors import cached_descriptors
 
     say = progress or (lambda m: None)
     fabric = params.load(FABRIC)
@@ -299,10 +279,10 @@ def frame_time(name: str, path: Path, view, *, progress=None) -> dict:
     ``render_fabric`` in this process as a user runs it (compiles and all, after a 16-spp frame
     of each); then, at that size, direct + fold against LocalPT at equal time (:func:`race`, warm
     and steady), both against direct + LocalPT's local light at :data:`FRAME_REF_SPP`."""
-    from ... import params
-    from ..mesh import load_mesh
-    from ..run import PASS_SPP, RenderOptions, prepare_render, render_passes
-    from .descriptors import cached_descriptors
+    from .. import params
+    from ..render.mesh import load_mesh
+    from ..render.run import PASS_SPP, RenderOptions, prepare_render, render_passes
+    from ..render.fold.descriptors import cached_descriptors
 
     fabric = params.load(FABRIC)
     mesh = load_mesh(path)
@@ -446,7 +426,7 @@ def _local_cells(q: dict) -> str:
 
 def _register() -> None:
     """Add this section to ``weavecap bench --render`` (which imports this module)."""
-    from ..bench import Section, register_section
+    from .render import Section, register_section
 
     register_section(Section("fold", f"Fold renderer against LocalPT and PT ({SIZE[0]}×{SIZE[1]}, {REF_SPP} spp, "
                                      f"{LIGHT} light)", run, table))
@@ -461,8 +441,8 @@ def picture(folder: Path, names: list[str], out: Path) -> Path:
     direct light, too little to see beside it. Labelled."""
     from PIL import Image, ImageDraw
 
-    from ...io import atomic_path
-    from ...photo import linear_to_srgb
+    from ..io import atomic_path
+    from ..photo import linear_to_srgb
 
     labels = ("direct", "direct + fold", "LocalPT", "PT", "fold term", "LocalPT local")
     rows = [np.load(Path(folder) / f"{name}.npz") for name in names]
@@ -488,22 +468,22 @@ def picture(folder: Path, names: list[str], out: Path) -> Path:
     return out
 
 
-USAGE = """usage: python -m weavecap.render.fold.bench OUT [--quick]
+USAGE = """usage: python -m weavecap.bench.fold OUT [--quick]
 
 The fold renderer's section of `weavecap bench --render` alone: every mesh against LocalPT and PT
 at 192x108 (4096 spp), equal time, and the 1280x720 frames; writes OUT/fold.json, OUT/fold.md,
 OUT/fold.png and the images under OUT/images. --quick: one seen and one unseen mesh.
 
-example: nice -n 5 python -m weavecap.render.fold.bench /tmp/fold-bench"""
+example: nice -n 5 python -m weavecap.bench.fold /tmp/fold-bench"""
 
 
 def main(argv: list[str] | None = None) -> None:
-    """``python -m weavecap.render.fold.bench OUT [--quick]``: this section alone, as ``weavecap
+    """``python -m weavecap.bench.fold OUT [--quick]``: this section alone, as ``weavecap
     bench --render`` runs it; writes OUT/fold.json, OUT/fold.md and OUT/fold.png."""
     import json
     import sys
 
-    from ...io import atomic_write_text
+    from ..io import atomic_write_text
 
     args = list(sys.argv[1:] if argv is None else argv)
     quick = "--quick" in args

@@ -1,4 +1,6 @@
-"""Training data for the woven neural renderer (Chen et al. 2024, §5.1), made smarter.
+"""The woven neural renderer's training data and training (Chen et al. 2024, §5).
+
+**Data.** Training data for the woven neural renderer (Chen et al. 2024, §5.1), made smarter.
 
 The paper averages 2048 Monte-Carlo samples for each of 3.2 million queries a material
 (22 minutes a material, 165 GPU hours). Here a material is one side of a random fabric
@@ -23,35 +25,40 @@ Shards of ``shard_fabrics`` fabrics are written as ``.npz`` (plain arrays) under
 atomically; a shard already there is skipped, so an interrupted run resumes. Every draw of
 shard ``k`` comes from ``numpy.random.default_rng([seed, k])``: a seed gives the same data
 whatever was interrupted. Every ``held_out_every``-th fabric is held out of training.
+
+**Training.** Training the woven network (Chen et al. 2024, §5.2), resumable, and its held-out errors.
+
+The paper trains with SGD for 10 epochs of 160 million queries (4 days on a GPU). Here, on a
+shared 2-core CPU: Adam with a cosine learning-rate decay, batches of ``materials`` materials ×
+``queries`` queries each (the encoder runs once per material in a batch, so its cost is shared
+by the queries), for ``steps`` steps. Batch ``k`` is drawn from
+``numpy.random.default_rng([seed, k])`` alone, so a run stopped and resumed from its
+checkpoint (every ``checkpoint_every`` steps) goes on exactly as if it had not stopped.
+
+Held-out errors are measured in RGB — the channels combined with each material's own colours
+(:func:`.terms.combine`) — on fabrics the network never saw (:func:`.data.is_held_out`), per
+footprint size (points, sub-yarn, up to a repeat, beyond) and for reflection / transmission.
 """
 
 from __future__ import annotations
 
-import json
 import math
-import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
 
-from ...params import FIT_RANGES, Fabric
-from ..surface import BACK, FACE, HORIZON_AZIMUTHS, SurfaceMaps, bake
-from . import terms as _terms
-from .footprint import FEATURES, baseline_channels, box_mean, fabric_to_texel, feature_image, footprint_features, periodic_sat
+from ..params import Fabric
+from ..render.surface import BACK, FACE, SurfaceMaps, bake
+from ..render.woven import terms as _terms
+from ..render.woven.encoding import encoder_image, encoder_params
+from ..render.woven.footprint import (FEATURES, baseline_channels, box_mean, fabric_to_texel, feature_image,
+                                      footprint_features, periodic_sat)
+from ..render.woven.terms import CHANNELS
+from .trainer import Trainer, make_shards, shard_path, write_weights
 
 MIN_FOOTPRINT = 1.0 / 16.0  # yarn pitches: the smallest box footprint
 MAX_REPEATS = 5.0  # the largest footprint, in repeats of the longer side
-ENCODER_TEXELS = 8  # texels per yarn of the encoder's input image
-ENCODER_SIZE = 64  # the encoder's input image is ENCODER_SIZE² texels (the repeat tiled)
-#: non-colour parameters the encoder is given (normalised over FIT_RANGES), then log2 of the
-#: repeat's wefts and warps / 3
-ENCODER_PARAMS = ("specular.roughness", "specular.roughness_exit", "specular.ior", "specular.ior_exit",
-                  "specular.attenuation", "body_attenuation", "shadowing.ply", "shadowing.fiber", "plies", "fibers")
-N_PARAMS = len(ENCODER_PARAMS) + 2
-#: the encoder image's channels
-ENCODER_CHANNELS = ("coverage", "warp", "normal_x", "normal_y", "height", "groove_p", "groove_f", "horizon",
-                    "horizon_cos", "horizon_sin", "through", "through_tilted")
 #: a query's inputs: footprint centre (s, t) in repeats, its side in yarn pitches (0: a
 #: point), the viewer's and the light's face-frame directions
 INPUTS = ("s", "t", "size", "wi_x", "wi_y", "wi_z", "wo_x", "wo_y", "wo_z")
@@ -78,50 +85,6 @@ class DataConfig:
     @property
     def queries_per_material(self) -> int:
         return 2 * self.grid ** 2 * (self.footprints + self.points)
-
-
-# ---------------------------------------------------------------------------------------------
-# what the encoder sees
-
-
-def _to_encoder_resolution(a: np.ndarray, t: int) -> np.ndarray:
-    """(H, W, C) at ``t`` texels a yarn → ENCODER_TEXELS a yarn (box mean or periodic
-    bilinear resampling)."""
-    from scipy import ndimage
-
-    if t % ENCODER_TEXELS == 0:
-        k = t // ENCODER_TEXELS
-        h, w, c = a.shape
-        return a.reshape(h // k, k, w // k, k, c).mean(axis=(1, 3))
-    zoom = ENCODER_TEXELS / t
-    return np.stack([ndimage.zoom(a[..., i], zoom, order=1, mode="grid-wrap") for i in range(a.shape[-1])], -1)
-
-
-def encoder_image(maps: SurfaceMaps, side: int) -> np.ndarray:
-    """(len(ENCODER_CHANNELS), ENCODER_SIZE, ENCODER_SIZE) float32: the maps of ``side`` at
-    ENCODER_TEXELS texels a yarn, the repeat tiled over the image (cropped beyond 8 yarns)."""
-    phi = 2.0 * np.pi * np.arange(HORIZON_AZIMUTHS) / HORIZON_AZIMUTHS
-    hz, th = maps.horizon[side], maps.through[side]
-    planes = np.stack([maps.coverage[side], maps.warp[side], maps.normal[side, ..., 0], maps.normal[side, ..., 1],
-                       maps.height[side], maps.grooves[side, ..., 0], maps.grooves[side, ..., 1], hz.mean(axis=-1),
-                       2.0 * (hz * np.cos(phi)).mean(axis=-1), 2.0 * (hz * np.sin(phi)).mean(axis=-1), th[..., 0],
-                       th[..., 1:].mean(axis=-1)], axis=-1)
-    small = _to_encoder_resolution(planes, maps.texels_per_yarn)
-    rows = np.arange(ENCODER_SIZE) % small.shape[0]
-    cols = np.arange(ENCODER_SIZE) % small.shape[1]
-    return np.ascontiguousarray(small[rows][:, cols].transpose(2, 0, 1), dtype=np.float32)
-
-
-def encoder_params(fabric: Fabric) -> np.ndarray:
-    """(N_PARAMS,) float32: ENCODER_PARAMS scaled to [0, 1] over FIT_RANGES, and log2 of the
-    repeat's wefts and warps over 3 (8 yarns → 1)."""
-    values = []
-    for key in ENCODER_PARAMS:
-        lo, hi = FIT_RANGES[key]
-        values.append((float(fabric.get(key)) - lo) / (hi - lo))
-    n_e, n_a = fabric.shape
-    values += [math.log2(n_e) / 3.0, math.log2(n_a) / 3.0]
-    return np.asarray(values, dtype=np.float32)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -224,7 +187,7 @@ def material_queries(fabric: Fabric, maps: SurfaceMaps, side: int, config: DataC
     """The queries of one material (``side`` of ``fabric``): dict of ``inputs`` (Q, 9) float32
     (INPUTS) and ``targets`` (Q, 14) float32 (:data:`~.terms.CHANNELS`). Their features and
     baselines are added from the shard's stored maps (:func:`complete_shard`)."""
-    from ..bsdf import SurfaceTextures, shading_of
+    from ..render.bsdf import SurfaceTextures, shading_of
 
     shading, _ = shading_of(fabric)
     h, w = maps.shape
@@ -258,8 +221,8 @@ def material_queries(fabric: Fabric, maps: SurfaceMaps, side: int, config: DataC
 def fixture_fabrics() -> list[Fabric]:
     """The project's fixture fabrics (fixtures/params/*.json): the first fabrics of the data,
     so the bench has fabrics the network has seen."""
-    from ... import params
-    from ...fixtures import path as fixture_path
+    from .. import params
+    from ..fixtures import path as fixture_path
 
     folder = Path(fixture_path("params"))
     return [params.load(p) for p in sorted(folder.glob("*.json"))]
@@ -269,7 +232,7 @@ def shard_fabrics(config: DataConfig, shard: int) -> list[tuple[int, Fabric]]:
     """The (index, fabric) pairs of shard ``shard``: the fixtures first (shard 0), then
     random fabrics drawn from the shard's own generator (the family uniform over
     :data:`~weavecap.estimate.sampling.FAMILIES`, then the pattern and every parameter)."""
-    from ...estimate.sampling import random_fabric, random_pattern
+    from ..estimate.sampling import random_fabric, random_pattern
 
     fixtures = fixture_fabrics()
     rng = np.random.default_rng([config.seed, shard, 0])
@@ -335,7 +298,7 @@ def prefilter_queries(fabric: Fabric, maps: SurfaceMaps, side: int, inputs: np.n
     ``side``: the footprints' map statistics (:func:`~.footprint.footprint_features`, as the
     renderer reads them) and the surface model at their mean maps
     (:func:`~.footprint.baseline_channels`)."""
-    from ..bsdf import shading_of
+    from ..render.bsdf import shading_of
 
     mi, dr = _terms._backend()
     shading, _ = shading_of(fabric)
@@ -352,15 +315,10 @@ def prefilter_queries(fabric: Fabric, maps: SurfaceMaps, side: int, inputs: np.n
     return features.astype(np.float16), np.stack([np.asarray(b) for b in base], axis=-1).astype(np.float32)
 
 
-def complete_shard(path: Path, config: DataConfig, shard: int) -> bool:
-    """Add each query's ``features`` and ``baseline`` (:func:`prefilter_queries`) to a shard
-    from its stored maps, unless it has them. Returns whether it wrote."""
-    from ...io import atomic_path
-
-    with np.load(path) as z:
-        if "baseline" in z.files:
-            return False
-        arrays = {k: z[k] for k in z.files}
+def add_prefiltered(arrays: dict, config: DataConfig, shard: int) -> dict:
+    """Shard ``shard``'s arrays (:func:`make_shard`) with each query's ``features`` and
+    ``baseline`` (:func:`prefilter_queries`) from its stored maps (float16, as training sees
+    them)."""
     fabrics = dict(shard_fabrics(config, shard))
     features = np.zeros((len(arrays["inputs"]), len(FEATURES)), dtype=np.float16)
     baseline = np.zeros((len(arrays["inputs"]), len(_terms.CHANNELS)), dtype=np.float32)
@@ -369,41 +327,18 @@ def complete_shard(path: Path, config: DataConfig, shard: int) -> bool:
         fabric = fabrics[int(index)]
         maps = stored_maps(arrays, int(index), fabric.shape, config.texels_per_yarn)
         features[sel], baseline[sel] = prefilter_queries(fabric, maps, int(side), arrays["inputs"][sel])
-    arrays["features"], arrays["baseline"] = features, baseline
-    with atomic_path(path) as tmp:
-        np.savez(tmp, **arrays)
-    return True
+    return arrays | {"features": features, "baseline": baseline}
 
 
-def shard_path(folder: Path, shard: int) -> Path:
-    return Path(folder) / f"shard_{shard:04d}.npz"
-
-
-def generate(folder: Path, config: DataConfig, *, progress=None) -> dict:
-    """Write every shard of ``config`` not yet in ``folder`` (resumable). Returns a summary:
-    shards made and skipped, queries, seconds. ``progress(done, total, message)``."""
-    from ...io import atomic_path
-
+def generate(folder: Path, config: DataConfig, *, progress=lambda message: None) -> float:
+    """Write every shard of ``config`` not yet in ``folder`` (:func:`weavecap.training.trainer.
+    make_shards`: resumable, seeded by shard); return the seconds all shards took to make,
+    those of earlier runs included."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    (folder / "config.json").write_text(json.dumps(asdict(config), indent=1) + "\n")
-    made = skipped = 0
-    start = time.perf_counter()
-    for shard in range(config.shards):
-        path = shard_path(folder, shard)
-        if path.exists():
-            skipped += 1
-        else:
-            arrays = make_shard(config, shard)
-            with atomic_path(path) as tmp:
-                np.savez(tmp, **arrays)
-            made += 1
-        complete_shard(path, config, shard)
-        if progress is not None:
-            elapsed = time.perf_counter() - start
-            progress(shard + 1, config.shards, f"data shard {shard + 1}/{config.shards} ({elapsed:.0f} s)")
-    return {"shards_made": made, "shards_skipped": skipped, "seconds": time.perf_counter() - start,
-            "queries": config.fabrics * 2 * config.queries_per_material}
+    paths = [shard_path(folder, shard) for shard in range(config.shards)]
+    return make_shards(paths, lambda shard: add_prefiltered(make_shard(config, shard), config, shard),
+                       progress=progress, describe=lambda a: f"{len(a['inputs'])} queries")
 
 
 def is_held_out(config: DataConfig, fabric_index: int) -> bool:
@@ -415,3 +350,199 @@ def is_held_out(config: DataConfig, fabric_index: int) -> bool:
     if config.fabrics < every:
         return fabric_index == config.fabrics - 1
     return fabric_index % every == every - 1
+
+
+# ---------------------------------------------------------------------------------------------
+# training
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """Optimisation settings (see the module docstring)."""
+
+    steps: int = 12000
+    materials: int = 4
+    queries: int = 1024
+    lr: float = 2e-3
+    lr_final: float = 2e-5
+    weight_decay: float = 1e-6
+    checkpoint_every: int = 250
+    use_features: bool = True
+    use_baseline: bool = True
+    encoder_widths: tuple = (16, 32, 64, 64)
+    width: int = 64  # the decoder's layers
+    seed: int = 0
+    threads: int = 1  # one thread: on the loaded 2 cores, 2 threads ran 8× slower (docs/woven.md)
+
+
+class Dataset:
+    """Every shard of a data folder in memory: per-query arrays and per-material arrays."""
+
+    def __init__(self, folder: Path, config: DataConfig):
+        inputs, features, targets, baseline, material = [], [], [], [], []
+        mats = {"image": [], "params": [], "fabric": [], "side": [], "shape": [], "colours": []}
+        offset = 0
+        for shard in range(config.shards):
+            path = shard_path(folder, shard)
+            if not path.exists():
+                raise FileNotFoundError(f"{path}: data shard missing; generate the data first")
+            with np.load(path) as z:
+                inputs.append(z["inputs"])
+                features.append(z["features"])
+                targets.append(z["targets"])
+                baseline.append(z["baseline"])
+                material.append(z["material"] + offset)
+                for key in mats:
+                    mats[key].append(z[f"material_{key}"])
+                offset += len(z["material_fabric"])
+        self.inputs = np.concatenate(inputs)
+        self.features = np.concatenate(features)
+        self.targets = np.concatenate(targets)
+        self.baseline = np.concatenate(baseline)
+        self.material = np.concatenate(material)
+        for key, value in mats.items():
+            setattr(self, key, np.concatenate(value))
+        starts = np.searchsorted(self.material, np.arange(offset))
+        self.ranges = np.stack([starts, np.append(starts[1:], len(self.material))], axis=1)
+        held = np.array([is_held_out(config, int(f)) for f in self.fabric])
+        self.train_materials = np.flatnonzero(~held)
+        self.held_materials = np.flatnonzero(held)
+
+    def batch(self, rng: np.random.Generator, materials: int, queries: int, pool: np.ndarray | None = None) -> dict:
+        """A batch: ``materials`` materials drawn from ``pool`` (default: the training ones),
+        ``queries`` random queries of each."""
+        pool = self.train_materials if pool is None else pool
+        chosen = rng.choice(pool, materials, replace=len(pool) < materials)
+        idx = np.concatenate([rng.integers(self.ranges[m, 0], self.ranges[m, 1], queries) for m in chosen])
+        return {"image": self.image[chosen].astype(np.float32), "params": self.params[chosen],
+                "material": np.repeat(np.arange(materials), queries), "inputs": self.inputs[idx],
+                "features": self.features[idx].astype(np.float32), "targets": self.targets[idx],
+                "baseline": self.baseline[idx]}
+
+
+def _tensors(batch: dict):
+    import torch
+
+    return {k: torch.from_numpy(np.ascontiguousarray(v)) for k, v in batch.items()}
+
+
+def learning_rate(config: TrainConfig, step: int) -> float:
+    """Cosine decay from ``lr`` to ``lr_final`` over ``steps``."""
+    f = min(1.0, step / max(1, config.steps))
+    return config.lr_final + 0.5 * (config.lr - config.lr_final) * (1.0 + math.cos(math.pi * f))
+
+
+def build(config: TrainConfig):
+    import torch
+
+    from ..render.woven.network import WovenNet
+
+    torch.manual_seed(config.seed)
+    return WovenNet(use_features=config.use_features, use_baseline=config.use_baseline,
+                    encoder_widths=tuple(config.encoder_widths), width=config.width)
+
+
+def train(dataset: Dataset, folder: Path, config: TrainConfig, *, log=None):
+    """Train (or resume) in ``folder`` on the skeleton's steps (:class:`weavecap.training.trainer.
+    Trainer`: a checkpoint every ``checkpoint_every`` steps; step ``k``'s batch and learning rate
+    from ``k`` alone). Returns (model, summary dict: steps, seconds, the running losses every 50
+    steps)."""
+    import torch
+
+    from ..render.woven.network import loss as woven_loss
+
+    torch.set_num_threads(config.threads)
+    model = build(config)
+    opt = torch.optim.Adam(model.parameters(), lr=config.lr, weight_decay=config.weight_decay)
+    trainer = Trainer(folder, asdict(config), model, opt, progress=log or (lambda m: None))
+    history, parts, running = [], {}, {}
+
+    def loss(step: int):
+        b = _tensors(dataset.batch(np.random.default_rng([config.seed, step]), config.materials, config.queries))
+        for group in opt.param_groups:
+            group["lr"] = learning_rate(config, step)
+        out = model(b["image"], b["params"], b["material"], b["inputs"], b["features"], b["baseline"])
+        total, spec, body = woven_loss(out, b["targets"], b["inputs"], use_baseline=config.use_baseline)
+        parts["values"] = np.array([total.item(), spec.item(), body.item()])
+        return total
+
+    def after(step: int, _value: float) -> None:
+        values = parts["values"]
+        running["mean"] = values if "mean" not in running else 0.98 * running["mean"] + 0.02 * values
+        if step % 50 == 0:
+            history.append([step, *running["mean"].tolist()])
+            if log is not None:
+                total, spec, body = running["mean"]
+                log(f"step {step}/{config.steps} loss {total:.5f} spec {spec:.5f} body {body:.6f} "
+                    f"lr {learning_rate(config, step):.2e} ({trainer.seconds:.0f} s)")
+
+    trainer.steps(config.steps, loss, every=config.checkpoint_every, after=after)
+    return model, {"steps": trainer.done, "seconds": trainer.seconds, "history": history}
+
+
+def evaluate(model, dataset: Dataset, materials: np.ndarray, *, queries: int = 2048, seed: int = 1,
+             baseline_only: bool = False) -> dict:
+    """Errors in RGB on ``materials`` (``queries`` random queries each): relative MSE
+    (Σ err² / Σ truth²) and relative mean absolute error, overall and by footprint size and
+    light side."""
+    import torch
+
+    from ..render.woven.network import to_values
+
+    rng = np.random.default_rng(seed)
+    preds, truths, sizes, below, shapes, per_material = [], [], [], [], [], []
+    if model is not None:
+        model.eval()
+    with torch.no_grad():
+        for m in materials:
+            idx = rng.integers(dataset.ranges[m, 0], dataset.ranges[m, 1], queries)
+            inputs = torch.from_numpy(dataset.inputs[idx])
+            if baseline_only:
+                values = dataset.baseline[idx].astype(np.float64)
+            else:
+                out = model(torch.from_numpy(dataset.image[m:m + 1].astype(np.float32)),
+                            torch.from_numpy(dataset.params[m:m + 1]), torch.zeros(len(idx), dtype=torch.long), inputs,
+                            torch.from_numpy(dataset.features[idx].astype(np.float32)),
+                            torch.from_numpy(dataset.baseline[idx]))
+                values = to_values(out, inputs, use_baseline=model.decoder.use_baseline).numpy().astype(np.float64)
+            coef = dataset.colours[m].astype(np.float64)
+            preds.append(_terms.combine(values, coef))
+            truths.append(_terms.combine(dataset.targets[idx].astype(np.float64), coef))
+            per_material.append(float(((preds[-1] - truths[-1]) ** 2).sum() / max((truths[-1] ** 2).sum(), 1e-30)))
+            sizes.append(dataset.inputs[idx, 2] / max(dataset.shape[m]))
+            below.append(dataset.inputs[idx, 8] < 0.0)
+            shapes.append(np.full(len(idx), 1.0 / max(dataset.shape[m])))
+    if model is not None:
+        model.train()
+    pred, truth = np.concatenate(preds), np.concatenate(truths)
+    size, under, yarn = np.concatenate(sizes), np.concatenate(below), np.concatenate(shapes)
+
+    def errors(sel):
+        if not sel.any():
+            return None
+        e = pred[sel] - truth[sel]
+        return {"queries": int(sel.sum()), "rel_mse": float((e ** 2).sum() / max((truth[sel] ** 2).sum(), 1e-30)),
+                "rel_mae": float(np.abs(e).sum() / max(np.abs(truth[sel]).sum(), 1e-30))}
+
+    out = {"median_material_rel_mse": float(np.median(per_material)),
+           "all": errors(np.ones_like(size, dtype=bool)), "reflection": errors(~under), "transmission": errors(under),
+           "point": errors(size == 0.0), "sub_yarn": errors((size > 0) & (size < yarn)),
+           "yarn_to_repeat": errors((size >= yarn) & (size < 1.0)), "beyond_repeat": errors(size >= 1.0)}
+    return out
+
+
+def export(model, path: Path, record: dict) -> None:
+    """Write the weights as plain float32 arrays (``.npz``, no pickle) and ``record`` beside
+    them as JSON (``path`` with ``.json``): :func:`weavecap.training.trainer.write_weights`."""
+    write_weights(path, model, record)
+
+
+def record(data_config: DataConfig, train_config: TrainConfig, *, data_seconds: float, train_summary: dict,
+           held_out: dict, seen: dict, dataset: Dataset) -> dict:
+    """How the weights were made: configs, sizes, times and errors (the JSON beside them)."""
+    return {"format": "weavecap.woven/1", "paper": "Chen et al. 2024, Real-time Neural Woven Fabric Rendering",
+            "channels": list(CHANNELS), "data": asdict(data_config), "train": asdict(train_config),
+            "queries": int(len(dataset.inputs)), "materials": int(len(dataset.fabric)),
+            "held_out_materials": int(len(dataset.held_materials)), "data_seconds": data_seconds,
+            "train_seconds": train_summary["seconds"], "steps": train_summary["steps"],
+            "loss_history": train_summary["history"][-20:], "held_out_errors": held_out, "seen_errors": seen}

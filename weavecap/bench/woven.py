@@ -13,7 +13,7 @@ For each fabric and view (SIZE² pixels):
 
 - truth: the direct-lighting reference (:class:`weavecap.render.bsdf.SurfaceBSDF` with the
   ``weavecap_path`` integrator at ``max_depth=2``, as ``--mode direct``) at TRUTH_SPP;
-- neural: :class:`.bsdf.NeuralSurfaceBSDF` with ``woven_direct`` at one sample a pixel;
+- neural: :class:`.bsdf.NeuralSurfaceBSDF` with ``fabric_direct`` at one sample a pixel;
 - the reference at 1 spp, at equal time, and at REF_SPPS, other seeds than the truth's; its
   MSE against spp is interpolated (log–log) to the spp where it reaches the neural MSE
   (extrapolated with MSE ∝ 1/spp past the last), and that spp's time over the neural time is
@@ -38,7 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...params import Fabric
+from ..params import Fabric
 
 ELEVATION_DEG = 55.0  # camera above the sheet's plane
 FOV_DEG = 30.0
@@ -53,7 +53,7 @@ FRAME = (1280, 720)
 FRAME_SPP = 16  # the reference's second timed frame
 
 
-from . import PIXEL_CENTRES as NEURAL_SAMPLER  # noqa: E402
+from ..render.woven import PIXEL_CENTRES as NEURAL_SAMPLER  # noqa: E402
 
 
 @dataclass(frozen=True)
@@ -72,7 +72,7 @@ VIEWS = (View("close", 40.0), View("near", 10.0), View("mid", 2.5), View("yarn",
 
 
 def _mi():
-    from . import terms as _terms
+    from ..render.woven import terms as _terms
 
     return _terms._backend()
 
@@ -124,29 +124,29 @@ def scene(bsdf, integrator: dict, view: View, repeat_m: float, size: tuple[int, 
 
 
 def placement_of(fabric: Fabric):
-    from ..bsdf import Placement
+    from ..render.bsdf import Placement
 
     n_e, n_a = fabric.shape
     return Placement(repeat_size=(n_a * PITCH_M, n_e * PITCH_M))
 
 
 def reference_integrator() -> dict:
-    from .. import integrator as _integrator  # noqa: F401  (registers "weavecap_path")
+    from ..render import integrator as _integrator  # noqa: F401  (registers "weavecap_path")
 
     return {"type": "weavecap_path", "max_depth": 2, "rr_depth": 5, "background": BACKDROP}
 
 
 def neural_integrator() -> dict:
-    from . import integrator as _integrator  # noqa: F401
+    from ..render import direct as _direct  # noqa: F401  (registers "fabric_direct")
 
-    return {"type": "woven_direct", "background": BACKDROP}
+    return {"type": "fabric_direct", "background": BACKDROP}
 
 
 def plain_bsdf(maps, fabric: Fabric):
     """Mitsuba's ``diffuse`` with the fabric's mean body colour per texel (warp/weft by the
     warp share, times coverage) as a bitmap texture over one repeat."""
     mi, _ = _mi()
-    from .terms import fabric_colours
+    from ..render.woven.terms import fabric_colours
 
     c = fabric_colours(fabric)
     w = maps.warp[0][..., None]
@@ -195,9 +195,9 @@ BENCH_SEED = 90210  # the unseen random fabrics' generator (the training draws [
 def bench_fabrics() -> list[tuple[str, bool, Fabric]]:
     """(name, seen in training, fabric): two fixtures the data starts with, two random
     fabrics from a generator the training never used, and a capture of a real photo."""
-    from ... import params
-    from ...estimate.sampling import random_fabric, random_pattern
-    from ...fixtures import path as fixture_path
+    from .. import params
+    from ..estimate.sampling import random_fabric, random_pattern
+    from ..fixtures import path as fixture_path
 
     out = [("plain (fixture)", True, params.load(fixture_path("params", "plain.json"))),
            ("satin 5 (fixture)", True, params.load(fixture_path("params", "satin_5.json")))]
@@ -211,7 +211,7 @@ def bench_fabrics() -> list[tuple[str, bool, Fabric]]:
 
 
 def _surface_bsdf(fabric, maps, linear: bool):
-    from ..bsdf import SurfaceBSDF
+    from ..render.bsdf import SurfaceBSDF
 
     return SurfaceBSDF(fabric, maps, placement_of(fabric), linear=linear)
 
@@ -219,10 +219,11 @@ def _surface_bsdf(fabric, maps, linear: bool):
 def frame_costs(fabric: Fabric, maps, *, frames: int = TIMED_FRAMES) -> dict:
     """Warm FRAME-sized frame times of the close view, side by side: the neural renderer at
     1 spp, the reference at 1 and FRAME_SPP spp (its time is then ``a + b · spp``: a call's
-    fixed cost and a sample's), and a plain diffuse-textured direct render at 1 spp. Times
+    fixed cost and a sample's), ``--mode direct``'s integrator with the surface model at 1 spp,
+    and a plain diffuse-textured direct render at 1 spp. Times
     are taken at frame size, where the per-pixel work (not a call's overhead, which is most of
     a 96² render's time) decides them."""
-    from .bsdf import NeuralSurfaceBSDF
+    from ..render.woven.bsdf import NeuralSurfaceBSDF
 
     n_e, n_a = fabric.shape
     repeat = max(n_e, n_a) * PITCH_M
@@ -230,6 +231,7 @@ def frame_costs(fabric: Fabric, maps, *, frames: int = TIMED_FRAMES) -> dict:
     cases = {"neural": (NeuralSurfaceBSDF(fabric, maps, placement_of(fabric)), neural_integrator(), NEURAL_SAMPLER, 1),
              "reference_1": (_surface_bsdf(fabric, maps, True), reference_integrator(), None, 1),
              f"reference_{FRAME_SPP}": (_surface_bsdf(fabric, maps, True), reference_integrator(), None, FRAME_SPP),
+             "direct": (_surface_bsdf(fabric, maps, True), neural_integrator(), None, 1),
              "plain": (plain_bsdf(maps, fabric), {"type": "direct"}, None, 1)}
     out = {"size": list(FRAME)}
     for name, (bsdf, integrator, sampler, spp) in cases.items():
@@ -241,6 +243,7 @@ def frame_costs(fabric: Fabric, maps, *, frames: int = TIMED_FRAMES) -> dict:
     out["reference_per_spp_s"] = max((tn - t1) / (FRAME_SPP - 1), 1e-9)
     out["reference_fixed_s"] = max(t1 - out["reference_per_spp_s"], 0.0)
     out["ratio_to_plain"] = out["neural_warm_s"] / out["plain_warm_s"]
+    out["direct_ratio_to_plain"] = out["direct_warm_s"] / out["plain_warm_s"]
     out["equal_time_spp"] = max(1, int((out["neural_warm_s"] - out["reference_fixed_s"]) / out["reference_per_spp_s"]))
     return out
 
@@ -249,7 +252,7 @@ def measure_view(fabric: Fabric, maps, view: View, costs: dict, *, size: int = S
                  truth_spp: int = TRUTH_SPP) -> dict:
     """Every figure of one fabric and view (module docstring), and the images; ``costs``:
     :func:`frame_costs` of the fabric (the equal-time spp and the speed-up use them)."""
-    from .bsdf import NeuralSurfaceBSDF
+    from ..render.woven.bsdf import NeuralSurfaceBSDF
 
     n_e, n_a = fabric.shape
     repeat = max(n_e, n_a) * PITCH_M
@@ -293,9 +296,9 @@ def furnace(fabric: Fabric, maps, *, views: int = 6, directions: int = 64, seed:
     """The white fabric's hemispherical albedo (reflection + transmission: ∫ f |cos| dω over
     the sphere, stratified) under the network and under the surface model, at random
     footprints (points to repeats) and view directions; the largest of each."""
-    from ..bsdf import SurfaceTextures, eval_surface, shading_of
-    from .bsdf import NeuralSurfaceBSDF
-    from .data import stratified_hemisphere
+    from ..render.bsdf import SurfaceTextures, eval_surface, shading_of
+    from ..render.woven.bsdf import NeuralSurfaceBSDF
+    from ..training.woven import stratified_hemisphere
 
     mi, dr = _mi()
     fabric = white(fabric)
@@ -328,7 +331,7 @@ def furnace(fabric: Fabric, maps, *, views: int = 6, directions: int = 64, seed:
 
 def encoder_time(fabric: Fabric, maps, *, calls: int = 5) -> float:
     """Median seconds to encode one fabric (both sides) from its maps, after one call."""
-    from .bsdf import shared_model
+    from ..render.woven.bsdf import shared_model
 
     _, _, encoder = shared_model()
     times = []
@@ -344,8 +347,8 @@ def run(*, views=VIEWS, size: int = SIZE, truth_spp: int = TRUTH_SPP, fabrics=No
     """The whole section: per fabric and view the quality figures, the criteria of issue 13,
     the frame times, the encoder time, the weights' size and the furnace test. Images are
     returned under ``"images"`` (fabric name → view name → dict)."""
-    from ..surface import bake
-    from .infer import weights_path
+    from ..render.surface import bake
+    from ..render.woven.infer import weights_path
 
     say = progress or (lambda message: None)
     rows, images, encoders, furnaces, costs = [], {}, [], [], {}
@@ -403,7 +406,8 @@ def table(results: dict) -> str:
               f"median {c['speedup_at_equal_error_median']:.1f}x ('+': extrapolated past {REF_SPPS[-1]} spp)",
               f"{fr['size'][0]}x{fr['size'][1]} frame of {results['views'][0]['fabric']}, warm: neural "
               f"{fr['neural_warm_s']:.3f} s, plain diffuse direct {fr['plain_warm_s']:.3f} s (ratio "
-              f"{fr['ratio_to_plain']:.2f}; worst fabric {c['frame_ratio_to_plain']:.2f}); reference "
+              f"{fr['ratio_to_plain']:.2f}; worst fabric {c['frame_ratio_to_plain']:.2f}); --mode direct "
+              f"{fr['direct_warm_s']:.3f} s a sample (ratio {fr['direct_ratio_to_plain']:.2f}); reference "
               f"{fr['reference_fixed_s']:.3f} s + {fr['reference_per_spp_s']:.3f} s a sample (equal time: "
               f"{fr['equal_time_spp']} spp); cold neural {fr['neural_cold_s']:.2f} s, plain {fr['plain_cold_s']:.2f} s",
               f"weights {c['weights_mb']:.2f} MB; encoder {c['encoder_ms_max']:.1f} ms a fabric (max); "
@@ -416,7 +420,7 @@ def picture(images: dict, fabric: str, *, scale: int = 2, gain: float = 1.0):
     1 spp | |neural − reference| × 4 (sRGB, each image ``scale``× nearest-neighbour)."""
     from PIL import Image, ImageDraw
 
-    from ...photo import linear_to_srgb
+    from ..photo import linear_to_srgb
 
     rows = []
     for view, im in images[fabric].items():
@@ -440,7 +444,7 @@ def write(results: dict, folder) -> list:
     import json
     from pathlib import Path
 
-    from ...io import atomic_path, atomic_write_text
+    from ..io import atomic_path, atomic_write_text
 
     folder = Path(folder)
     data = {k: v for k, v in results.items() if k != "images"}
@@ -459,7 +463,7 @@ QUICK_VIEWS = (VIEWS[0], VIEWS[2], VIEWS[-1])
 
 
 def section_run(quick: bool = False, progress=None) -> dict:
-    """The ``woven`` section of :mod:`weavecap.render.bench`: :func:`run` without the images
+    """The ``woven`` section of :mod:`weavecap.bench.render`: :func:`run` without the images
     (``quick``: the close, mid and far views of one seen and two unseen fabrics)."""
     fabrics = bench_fabrics()
     if quick:
@@ -474,7 +478,7 @@ def section_table(results: dict) -> str:
 
 
 def _register() -> None:
-    from ..bench import Section, register_section
+    from .render import Section, register_section
 
     register_section(Section("woven", "Woven neural renderer against the direct reference (Chen et al. 2024)",
                              section_run, section_table))
@@ -484,13 +488,13 @@ _register()
 
 
 def main(argv: list[str] | None = None) -> None:
-    """``python -m weavecap.render.woven.bench OUT``: the whole section, with its pictures
+    """``python -m weavecap.bench.woven OUT``: the whole section, with its pictures
     (OUT/woven.json, OUT/woven_<fabric>.png: reference | neural | reference 1 spp | error)."""
     import sys
 
     argv = sys.argv[1:] if argv is None else argv
     if len(argv) != 1:
-        raise SystemExit("usage: python -m weavecap.render.woven.bench OUT")
+        raise SystemExit("usage: python -m weavecap.bench.woven OUT")
     results = run(progress=lambda m: print(m, file=sys.stderr, flush=True))
     for path in write(results, argv[0]):
         print(path, file=sys.stderr)

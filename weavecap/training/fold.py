@@ -15,25 +15,25 @@ a shard that exists is not made again, so an interrupted run resumes.
 
 Training: AdamW on the mean squared error of E·ρ·Σ V̄·gain against LocalPT over every sample
 and channel, in units of the targets' spread (samples whose neighbourhood is lit on neither
-side are left out: they predict 0 at any θ), cosine learning-rate decay, batches shuffled by a
-generator seeded with (seed, epoch); the last block of lights of every mesh is held out. A
-checkpoint after every epoch (tensors only, read back with ``weights_only=True``) lets an
-interrupted run resume.
+side are left out: they predict 0 at any θ), cosine learning-rate decay; the last block of
+lights of every mesh is held out. Shards, epochs (batches of a permutation seeded with (seed,
+epoch)) and the checkpoint after every epoch are the skeleton's
+(:mod:`weavecap.training.trainer`): an interrupted run resumes.
 """
 
 from __future__ import annotations
 
-import json
-import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Callable, Sequence
 
 import numpy as np
 
-from . import blidf as B
-from .descriptors import cached_descriptors
-from .visibility import SIDES, fibonacci_sphere, hat_points, lit_share, neighbourhood_albedo, neighbourhood_samples
+from ..render.fold import blidf as B
+from ..render.fold.descriptors import cached_descriptors
+from ..render.fold.visibility import (SIDES, fibonacci_sphere, hat_points, lit_share, neighbourhood_albedo,
+                                      neighbourhood_samples)
+from .trainer import Trainer, make_shards
 
 Progress = Callable[[str], None]
 
@@ -48,13 +48,13 @@ class FoldMesh:
     def load(self, folder: Path):
         """The shape as ``weavecap render`` reads it (:func:`weavecap.render.mesh.load_mesh` of
         its OBJ, written to ``folder``): the same positions, normals and fabric coordinates."""
-        from ..mesh import load_mesh
+        from ..render.mesh import load_mesh
 
         path = folder / f"{self.name}.obj"
         if not path.is_file():
-            from ...io import atomic_write_text
+            from ..io import atomic_write_text
 
-            atomic_write_text(path, self.shape.obj_text("weavecap.render.fold.training.fold_suite()"))
+            atomic_write_text(path, self.shape.obj_text("weavecap.training.fold.fold_suite()"))
         return load_mesh(path)
 
 
@@ -105,7 +105,7 @@ def fold_suite() -> list[FoldMesh]:
     three amplitudes and a finer one, meandering waves, horseshoes wide and narrow, a skirt, a
     drape over a sphere), tessellated finer than the fixtures (≈ 2–5 mm edges) so that a
     neighbourhood of r holds enough vertices."""
-    from .. import shapes
+    from ..render import shapes
 
     made = [shapes.sine_folds(amplitude=0.004, samples_per_wave=24, rows=41, name="sine_low"),
             shapes.sine_folds(amplitude=0.008, samples_per_wave=24, rows=41, name="sine_mid"),
@@ -143,11 +143,11 @@ def shard_path(work: Path, index: int, mesh: FoldMesh, block: int) -> Path:
 def fabric_scene(mesh, fabric, config: TrainConfig):
     """A Mitsuba scene of ``mesh`` (a RenderMesh) in ``fabric``'s surface model, as ``weavecap
     render`` makes it, under one directional light (``"sun"``): (scene, garment shape)."""
-    from ..bsdf import Placement
-    from ..modes import MODES
-    from ..run import pitch_of
-    from ..surface import bake
-    from .localpt import mi
+    from ..render.bsdf import Placement
+    from ..render.modes import MODES
+    from ..render.run import pitch_of
+    from ..render.surface import bake
+    from ..render.fold.localpt import mi
 
     pitch = pitch_of(fabric, None)[0] / 1000.0
     n_e, n_a = fabric.shape
@@ -161,8 +161,8 @@ def fabric_scene(mesh, fabric, config: TrainConfig):
 def albedo_at(scene, points: np.ndarray, normals: np.ndarray, offset: float) -> np.ndarray:
     """(P, 3): the albedo the garment shows at surface points seen along their normals (the
     surface model's ``ambient`` attribute, else the diffuse reflectance)."""
-    from .localpt import mi
-    from .visibility import _albedo_at, jit_vec3
+    from ..render.fold.localpt import mi
+    from ..render.fold.visibility import _albedo_at, jit_vec3
 
     ray = mi.Ray3f(jit_vec3(points + offset * normals, mi.Point3f), jit_vec3(-normals, mi.Vector3f))
     return _albedo_at(scene.ray_intersect(ray))
@@ -170,15 +170,31 @@ def albedo_at(scene, points: np.ndarray, normals: np.ndarray, offset: float) -> 
 
 def make_mesh_shards(work: Path, mesh: FoldMesh, index: int, config: TrainConfig, *,
                      progress: Progress = lambda s: None) -> float:
-    """Write the missing shards of one mesh; return the seconds its shards took to make."""
-    from ... import params as fabric_params
-    from ...fixtures import path as fixture_path
-    from .localpt import mi, radiance_leaving
-
+    """Write the missing shards of one mesh (:func:`weavecap.training.trainer.make_shards`, a
+    block of lights each); return the seconds its shards took to make. What every block shares
+    (the mesh, its descriptors, the vertex pool, the lights, the neighbourhoods) is made with
+    the first missing one and counted in its seconds."""
     paths = [shard_path(work, index, mesh, k) for k in range(config.blocks)]
-    if all(p.is_file() for p in paths):
-        return float(sum(np.load(p)["seconds"] for p in paths))
-    t0 = time.perf_counter()
+    shared = {}
+
+    def make(k: int) -> dict:
+        if not shared:
+            shared.update(_mesh_setup(work, mesh, index, config))
+        return _block(shared, k, config)
+
+    def describe(arrays: dict) -> str:
+        return f"{mesh.name}, {len(arrays['target'])} samples"
+
+    return make_shards(paths, make, progress=progress, describe=describe)
+
+
+def _mesh_setup(work: Path, mesh: FoldMesh, index: int, config: TrainConfig) -> dict:
+    """What every block of one mesh's data shares: the mesh, r, the vertex pool, the lights,
+    the fabrics' scenes, the LocalPT integrator, the view samples and the hat points."""
+    from .. import params as fabric_params
+    from ..fixtures import path as fixture_path
+    from ..render.fold.localpt import mi
+
     rng = np.random.default_rng([config.seed, index])
     rmesh = mesh.load(_folder(work, "meshes"))
     v, faces = rmesh.positions, rmesh.faces
@@ -195,50 +211,47 @@ def make_mesh_shards(work: Path, mesh: FoldMesh, index: int, config: TrainConfig
             for f, (scene, garment) in enumerate(scenes)]
     hats = {side: hat_points(v, faces, SIDES[side] * desc.normals.astype(np.float64), pool, config.hat_points,
                              rng)[:2] for side in (0, 1)}
-    setup = time.perf_counter() - t0
-    spent = 0.0
-    for k, path in enumerate(paths):
-        block = range(k * config.block, min((k + 1) * config.block, config.lights))
-        block_rng = np.random.default_rng([config.seed, index, k])
-        if path.is_file():
-            spent += float(np.load(path)["seconds"])
-            continue
-        t1 = time.perf_counter()
-        rows = {name: [] for name in ("features", "light_local", "vbar", "albedo", "albedo_here", "target", "vertex",
-                                      "side", "fabric")}
-        for light in block:
-            f = light % len(scenes)
-            scene, _ = scenes[f]
-            params = mi.traverse(scene)
-            params["sun.to_world"] = _towards(lights[light])
-            params.update()
-            pick = np.sort(block_rng.choice(len(pool), min(config.per_light, len(pool)), replace=False))
-            at = pool[pick]
-            to_light = np.broadcast_to(lights[light], (len(at), 3))
-            for side in (0, 1):
-                nb = near[f][side].take(pick)
-                feats, light_local = B.inputs(desc, side, at, to_light)
-                points, normals = (a[pick].reshape(-1, 3) for a in hats[side])
-                target = radiance_leaving(scene, integrator, points, normals, normals, spp=config.paths,
-                                          seed=int(block_rng.integers(2**31)), offset=1e-3 * r)
-                here = albedo_at(scene, points, normals, 1e-3 * r)
-                rows["features"].append(feats)
-                rows["light_local"].append(light_local)
-                rows["vbar"].append(lit_share(scene, nb, lights[light], r))
-                rows["albedo"].append(nb.mean_albedo())
-                rows["albedo_here"].append(here.reshape(len(at), config.hat_points, 3).mean(axis=1))
-                rows["target"].append(target.reshape(len(at), config.hat_points, 3).mean(axis=1))
-                rows["vertex"].append(at)
-                rows["side"].append(np.full(len(at), side))
-                rows["fabric"].append(np.full(len(at), f))
-        shard = {name: np.concatenate(parts).astype(np.int32 if name in ("vertex", "side", "fabric") else np.float32)
-                 for name, parts in rows.items()}
-        seconds = time.perf_counter() - t1 + (setup if k == 0 else 0.0)
-        _save(path, shard | {"seconds": np.float64(seconds), "radius": np.float64(r)})
-        spent += seconds
-        progress(f"data: {mesh.name} lights {block.start + 1}–{block.stop}/{config.lights} "
-                 f"({len(shard['target'])} samples, {seconds:.1f} s)")
-    return spent
+    return {"index": index, "desc": desc, "r": r, "pool": pool, "lights": lights, "scenes": scenes,
+            "integrator": integrator, "near": near, "hats": hats}
+
+
+def _block(shared: dict, k: int, config: TrainConfig) -> dict:
+    """The arrays of one mesh's block ``k`` of lights."""
+    from ..render.fold.localpt import mi, radiance_leaving
+
+    desc, r, pool, lights, scenes = shared["desc"], shared["r"], shared["pool"], shared["lights"], shared["scenes"]
+    block = range(k * config.block, min((k + 1) * config.block, config.lights))
+    block_rng = np.random.default_rng([config.seed, shared["index"], k])
+    rows = {name: [] for name in ("features", "light_local", "vbar", "albedo", "albedo_here", "target", "vertex",
+                                  "side", "fabric")}
+    for light in block:
+        f = light % len(scenes)
+        scene, _ = scenes[f]
+        params = mi.traverse(scene)
+        params["sun.to_world"] = _towards(lights[light])
+        params.update()
+        pick = np.sort(block_rng.choice(len(pool), min(config.per_light, len(pool)), replace=False))
+        at = pool[pick]
+        to_light = np.broadcast_to(lights[light], (len(at), 3))
+        for side in (0, 1):
+            nb = shared["near"][f][side].take(pick)
+            feats, light_local = B.inputs(desc, side, at, to_light)
+            points, normals = (a[pick].reshape(-1, 3) for a in shared["hats"][side])
+            target = radiance_leaving(scene, shared["integrator"], points, normals, normals, spp=config.paths,
+                                      seed=int(block_rng.integers(2**31)), offset=1e-3 * r)
+            here = albedo_at(scene, points, normals, 1e-3 * r)
+            rows["features"].append(feats)
+            rows["light_local"].append(light_local)
+            rows["vbar"].append(lit_share(scene, nb, lights[light], r))
+            rows["albedo"].append(nb.mean_albedo())
+            rows["albedo_here"].append(here.reshape(len(at), config.hat_points, 3).mean(axis=1))
+            rows["target"].append(target.reshape(len(at), config.hat_points, 3).mean(axis=1))
+            rows["vertex"].append(at)
+            rows["side"].append(np.full(len(at), side))
+            rows["fabric"].append(np.full(len(at), f))
+    shard = {name: np.concatenate(parts).astype(np.int32 if name in ("vertex", "side", "fabric") else np.float32)
+             for name, parts in rows.items()}
+    return shard | {"radius": np.float64(r)}
 
 
 def _folder(work: Path, name: str) -> Path:
@@ -249,20 +262,11 @@ def _folder(work: Path, name: str) -> Path:
 
 def _towards(to_light: np.ndarray):
     """A directional emitter's to_world for light travelling along −to_light."""
-    from .localpt import mi
+    from ..render.fold.localpt import mi
 
     d = -np.asarray(to_light, float)
     up = [0.0, 0.0, 1.0] if abs(d[2]) < 0.99 else [0.0, 1.0, 0.0]
     return mi.ScalarTransform4f().look_at(origin=[0.0, 0.0, 0.0], target=d.tolist(), up=up)
-
-
-def _save(path: Path, arrays: dict) -> None:
-    from ...io import atomic_path
-
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with atomic_path(path) as tmp:
-        with open(tmp, "wb") as fh:
-            np.savez(fh, **arrays)
 
 
 def generate_data(work: Path, meshes: Sequence[FoldMesh], config: TrainConfig, *,
@@ -412,7 +416,8 @@ def prediction_error(net, data: dict) -> dict:
 
 def train(work: Path, meshes: Sequence[FoldMesh], config: TrainConfig, *,
           progress: Progress = lambda s: None) -> tuple[object, float, dict]:
-    """Train (resuming from ``work/checkpoint.pt``); return the network, seconds spent and held-out errors."""
+    """Train on the skeleton's epochs (:class:`weavecap.training.trainer.Trainer`, resuming
+    from ``work/checkpoint.pt``); return the network, seconds spent and held-out errors."""
     import torch
 
     torch.manual_seed(config.seed)
@@ -424,58 +429,24 @@ def train(work: Path, meshes: Sequence[FoldMesh], config: TrainConfig, *,
     opt = torch.optim.AdamW(net.parameters(), lr=config.lr, weight_decay=config.weight_decay)
     # the loss in units of the targets' spread: radiances of 1e-4 would leave Adam's steps to its ε
     scale = float(1.0 / torch.sqrt(torch.mean(t["target"] ** 2)).clamp_min(1e-12))
-    steps = -(-len(t["vbar"]) // config.batch)
-    sched = torch.optim.lr_scheduler.CosineAnnealingLR(opt, T_max=config.epochs * steps)
-    ckpt = work / "checkpoint.pt"
-    start, spent = _resume(ckpt, config, {"net": net, "opt": opt, "sched": sched}, progress)
-    for epoch in range(start, config.epochs):
-        t0 = time.perf_counter()
-        order = torch.randperm(len(t["vbar"]), generator=torch.Generator().manual_seed(config.seed * 1000 + epoch))
-        total = 0.0
-        for s in range(steps):
-            idx = order[s * config.batch:(s + 1) * config.batch]
-            gains = net(t["features"][idx], t["light_local"][idx], t["albedo"][idx])
-            pred = t["albedo_here"][idx] * torch.einsum("nck,nk->nc", gains, t["vbar"][idx])
-            loss = torch.mean(((pred - t["target"][idx]) * scale) ** 2)
-            opt.zero_grad()
-            loss.backward()
-            opt.step()
-            sched.step()
-            total += loss.item() * len(idx)
-        spent += time.perf_counter() - t0
-        _save_checkpoint(ckpt, {"net": net.state_dict(), "opt": opt.state_dict(), "sched": sched.state_dict(),
-                                "epoch": epoch + 1, "seconds": spent, "settings": json.dumps(config.train_settings())})
-        if (epoch + 1) % 5 == 0 or epoch + 1 == config.epochs:
+    examples = len(t["vbar"])
+    sched = torch.optim.lr_scheduler.CosineAnnealingLR(opt, T_max=config.epochs * -(-examples // config.batch))
+    trainer = Trainer(work, config.train_settings(), net, opt, sched, progress=progress)
+
+    def loss(idx):
+        gains = net(t["features"][idx], t["light_local"][idx], t["albedo"][idx])
+        pred = t["albedo_here"][idx] * torch.einsum("nck,nk->nc", gains, t["vbar"][idx])
+        return torch.mean(((pred - t["target"][idx]) * scale) ** 2)
+
+    def after(done: int, mean_loss: float) -> None:
+        if done % 5 == 0 or done == config.epochs:
             err = prediction_error(net, held)
-            progress(f"train: epoch {epoch + 1}/{config.epochs} train RMSE {np.sqrt(total / len(t['vbar'])) / scale:.6f} "
-                     f"held-out {err['rmse']:.6f} (no fold term {err['rmse_without']:.6f}; mean {err['mean_ratio']:.3f}× "
-                     f"LocalPT's; {spent:.0f} s)")
-    return net, spent, {"train": prediction_error(net, train_set), "heldout": prediction_error(net, held)}
+            progress(f"train: epoch {done}/{config.epochs} train RMSE {np.sqrt(mean_loss) / scale:.6f} held-out "
+                     f"{err['rmse']:.6f} (no fold term {err['rmse_without']:.6f}; mean {err['mean_ratio']:.3f}× "
+                     f"LocalPT's; {trainer.seconds:.0f} s)")
 
-
-def _resume(path: Path, config: TrainConfig, parts: dict, progress: Progress) -> tuple[int, float]:
-    """Load the checkpoint into ``parts`` (name → object with ``load_state_dict``) if it exists and
-    was made with these training settings; return (epochs done, seconds spent)."""
-    import torch
-
-    if not path.is_file():
-        return 0, 0.0
-    state = torch.load(path, map_location="cpu", weights_only=True)
-    if json.loads(state["settings"]) != config.train_settings():
-        progress("train: the checkpoint is of other training settings; starting over")
-        return 0, 0.0
-    for name, part in parts.items():
-        part.load_state_dict(state[name])
-    progress(f"train: resuming after epoch {int(state['epoch'])}")
-    return int(state["epoch"]), float(state["seconds"])
-
-
-def _save_checkpoint(path: Path, state: dict) -> None:
-    import torch
-
-    tmp = path.with_suffix(".tmp")
-    torch.save(state, tmp)
-    tmp.replace(path)
+    trainer.epochs(config.epochs, examples, config.batch, config.seed, loss, after=after)
+    return net, trainer.seconds, {"train": prediction_error(net, train_set), "heldout": prediction_error(net, held)}
 
 
 def write_weights(path: Path, net, meshes: Sequence[FoldMesh], config: TrainConfig, *, data_seconds: float,

@@ -64,7 +64,7 @@ def register_section(section: Section) -> None:
 
 def bench_meshes(quick: bool = False) -> list[tuple[str, Path]]:
     """(name, path): the towel when ../shared is present, then the fixture meshes."""
-    from .shapes import FIXTURES
+    from ..render.shapes import FIXTURES
 
     meshes = []
     towel = SHARED_MESHES / "towel.obj"
@@ -79,8 +79,8 @@ def _scenes(mesh_path: Path) -> tuple[dict, dict]:
     ``weavecap render``'s reference (bake timed); and what was measured building them."""
     from .. import params
     from ..backend import mitsuba
-    from .mesh import load_mesh
-    from .run import RenderOptions, prepare_render
+    from ..render.mesh import load_mesh
+    from ..render.run import RenderOptions, prepare_render
 
     mi = mitsuba()
     t = time.perf_counter()
@@ -101,7 +101,7 @@ def measure(mesh_path: Path) -> dict:
     cache): each one's cold render (its kernels traced and compiled), then WARM_ROUNDS warm
     renders of each, alternating so that the machine's load falls on both alike (the fastest
     is kept); peak memory after the baseline's first render and at the end."""
-    from .run import render_passes
+    from ..render.run import render_passes
 
     scenes, out = _scenes(mesh_path)
     times: dict[str, list[float]] = {"diffuse": [], "reference": []}
@@ -125,7 +125,7 @@ def measure(mesh_path: Path) -> dict:
 def _child(args: list[str]) -> dict:
     with tempfile.TemporaryDirectory() as cache:
         env = dict(os.environ, DRJIT_CACHE_DIR=cache)
-        proc = subprocess.run([sys.executable, "-m", "weavecap.render.bench", "--child", *args], env=env,
+        proc = subprocess.run([sys.executable, "-m", "weavecap.bench.render", "--child", *args], env=env,
                               capture_output=True, text=True, check=False)
     if proc.returncode != 0:
         raise RuntimeError(f"render bench {args} failed:\n{proc.stderr[-2000:]}")
@@ -162,7 +162,7 @@ def reference_table(rows: list[dict]) -> str:
 
 def run_consistency(quick: bool = False, progress=None) -> list[dict]:
     from .. import params
-    from .consistency import compare_with_synth
+    from ..render.consistency import compare_with_synth
 
     rows = []
     files = sorted(fixture_path("params").glob("*.json"))
@@ -190,7 +190,7 @@ register_section(Section("consistency", "Flat swatch against synth (rig both, 4Ã
 
 
 #: optional modules of the other renderers that register a section when imported
-PLUGIN_SECTIONS = ("weavecap.render.woven.bench", "weavecap.render.fold.bench")
+PLUGIN_SECTIONS = ("weavecap.bench.woven", "weavecap.bench.fold", "weavecap.bench.agreement")
 
 
 def _load_plugin_sections() -> None:
@@ -220,10 +220,10 @@ def tables(results: dict) -> str:
 
 
 def main(argv: list[str] | None = None) -> None:
-    """``python -m weavecap.render.bench --child MESH``: measure one mesh, print JSON."""
+    """``python -m weavecap.bench.render --child MESH``: measure one mesh, print JSON."""
     argv = sys.argv[1:] if argv is None else argv
     if argv[:1] != ["--child"] or len(argv) != 2:
-        raise SystemExit("usage: python -m weavecap.render.bench --child MESH (use `weavecap bench --render`)")
+        raise SystemExit("usage: python -m weavecap.bench.render --child MESH (use `weavecap bench --render`)")
     print(json.dumps(measure(Path(argv[1]))))
 
 
