@@ -20,6 +20,8 @@ import numpy as np
 
 from . import params as wparams
 from .errors import PhotoError
+from .fit.compare import at_photo_scale
+from .fit.threads import flattened
 from .fit.config import PRESETS, FitConfig, cell_px_for
 from .fit.fidelity import captioned, faithful_figures, fidelity
 from .fit.target import align_cells, repeat_cells
@@ -116,7 +118,8 @@ class FitJob:
         return {"weave": record.get("weave"), "psnr_db": fit.get("psnr_db"),
                 "pattern_confidence": fit.get("pattern_confidence"), "yarns": record["grid"]["yarns"],
                 "light": fit.get("light", {}).get("rig"), "sharpness": fidelity.get("sharpness"),
-                "delta_e": fidelity.get("delta_e"), "clipped": fidelity.get("clipped")}
+                "delta_e": fidelity.get("delta_e"), "clipped": fidelity.get("clipped"),
+                "photo_scale": fidelity.get("photo_scale")}
 
 
 def psnr(a: np.ndarray, b: np.ndarray) -> float:
@@ -250,6 +253,8 @@ def capture_under_rig(photo_path: str | Path, options: CaptureOptions, *,
     if options.pattern is not None:
         start = start.replace({"pattern": options.pattern})
     timings["pre_estimate"] = time.perf_counter() - t
+    coloured = prepared  # as shot (at the photo's exposure): the thread colours are solved on it
+    prepared, report["pre_estimation"]["thread_colours"] = flattened(prepared, cells, start.pattern)
 
     if options.light == "auto":
         light, losses = choose_rig(prepared, cells, start, c=c, spp=config.spp)
@@ -286,6 +291,12 @@ def capture_under_rig(photo_path: str | Path, options: CaptureOptions, *,
     pitch = prepared.grid.pitch_px
     timings["noise"] = time.perf_counter() - t
 
+    say("thread colours and the fit at the photo's scale")
+    t = time.perf_counter()
+    at_scale = at_photo_scale(coloured.rectification.image, fitted, fabric, c=c, spp=config.spp)
+    fabric = at_scale.fabric
+    timings["photo_scale"] = time.perf_counter() - t
+
     say("measuring how well the photo determines each parameter")
     t = time.perf_counter()
     errors = standard_errors(result.fabric, target, blur_px=blur_px, light=fitted.rig, spp=config.spp,
@@ -299,7 +310,8 @@ def capture_under_rig(photo_path: str | Path, options: CaptureOptions, *,
         "psnr_db": round(psnr(rendered, target), 3), "iterations": result.iterations,
         "pattern_confidence": round(confidence, 4), "mse": result.loss, "stopped": result.stopped,
         "seconds": round(result.seconds, 3), "cell_px": c, "spp": config.spp, "moves": result.moves,
-        "pattern_fixed": options.pattern is not None, "fidelity": faithful.to_json(),
+        "pattern_fixed": options.pattern is not None,
+        "fidelity": {**faithful.to_json(), "photo_scale": at_scale.figures.to_json()},
         "parameters": {key: {"standard_error": round(se, 4) if np.isfinite(se) else None,
                              "determined": bool(se <= DETERMINED_SE)} for key, se in errors.items()},
     }
@@ -307,12 +319,11 @@ def capture_under_rig(photo_path: str | Path, options: CaptureOptions, *,
     report["modelled"] = modelled.describe(plan, result, errors, light=light, light_reason=light_reason,
                                            spp=config.spp,
                                            blur_px=blur_px, noise=noise, pitch_px=pitch, plies_flat=config.plies_flat)
+    report["threads"] = at_scale.threads
     report["timings_s"] = {k: round(v, 3) for k, v in timings.items()}
-    error = np.abs(rendered - target) * 4.0
-    images = {"compare.png": (exposure or 1.0) * np.concatenate([target, rendered, error], axis=1),
+    images = {"compare.png": at_scale.compare(target, rendered, [faithful.caption()], exposure=exposure or 1.0),
               "rectified.png": as_shot.rectification.image, "grid.png": as_shot.grid_overlay()}
-    return Capture(report=report, fabric=fabric, images=images, history=result.history,
-                   captions={"compare.png": faithful.caption()})
+    return Capture(report=report, fabric=fabric, images=images, history=result.history)
 
 
 def loss_plot(history: list[float], *, size: tuple[int, int] = (240, 400)) -> np.ndarray:

@@ -235,6 +235,22 @@ def mean_repeat(image: np.ndarray, cells: CellGrid, c: int, model: np.ndarray | 
     :func:`weavecap.fit.rounds.fit_registered` tries both and keeps the lower loss.
     Returns (n_e*c, n_a*c, 3) float32.
     """
+    return repeats_canvas(image, cells, c, model, hold_phase=hold_phase)[1]
+
+
+def repeats_canvas(image: np.ndarray, cells: CellGrid, c: int, model: np.ndarray | None = None, *,
+                   hold_phase: bool = False) -> tuple[np.ndarray, np.ndarray, CellGrid]:
+    """Every whole repeat of ``image`` on the lattice of ``cells`` as one cell canvas, read
+    along the lattice's drift where ``model`` is given and the drift is no mismatch (as
+    :func:`mean_repeat` describes, which is this canvas's median over the repeats).
+
+    Returns
+    -------
+    canvas : (ky*n_e*c, kx*n_a*c, 3) float32, the ky × kx repeats, cell (v, u) of the
+        canvas being cell (v mod n_e, u mod n_a) of the pattern
+    median : (n_e*c, n_a*c, 3) float32, the median repeat
+    lattice : the canvas's cells in ``image`` pixels (a regular lattice; the drift not included)
+    """
     n_e, n_a = cells.shape
     lattice, ky, kx = _whole_repeats(image.shape[:2], cells)
     canvas = cell_canvas(image, lattice, c)
@@ -254,11 +270,11 @@ def mean_repeat(image: np.ndarray, cells: CellGrid, c: int, model: np.ndarray | 
         if hold_phase:  # the drift from where the cells' own repeat is, not from the model
             field = field - correlation_shift(cell_canvas(image, cells, c).mean(axis=2),
                                               np.asarray(model).mean(axis=2))
-        canvas = cell_canvas(image, lattice, c, offset=np.moveaxis(field * scale, 2, 0))
-        followed, followed_spread = median_and_spread(canvas)
+        followed_canvas = cell_canvas(image, lattice, c, offset=np.moveaxis(field * scale, 2, 0))
+        followed, followed_spread = median_and_spread(followed_canvas)
         if followed_spread <= MISMATCH_SPREAD * spread:
-            median = followed
-    return median
+            median, canvas = followed, followed_canvas
+    return canvas, median, lattice
 
 
 def dual(fabric: Fabric) -> Fabric:

@@ -1,0 +1,156 @@
+"""Yarn-dyed colour orders from a photo: each thread's colour, the palette and the colour repeat.
+
+Wu et al. 2025 give each yarn family one colour (§5.2); a yarn-dyed fabric (stripes, checks,
+plaids, colour-and-weave effects) has a colour per thread, repeating over a *colour repeat*
+that need not be the weave's. This stage reads them off the photo, model-free, on the
+registered lattice of the fitted weave over every whole repeat the photo holds (a canvas of
+``c`` px a cell, :func:`weavecap.fit.target.repeats_canvas`):
+
+1. **each thread's colour** (:func:`thread_colours`) — the median linear colour of the centres
+   of the cells where that warp end (weft pick) lies on top, first per cell, then over the
+   cells: a float seen in many cells along the thread, so a hair, a flaw or a highlight in a
+   few of them does not move it;
+2. **the palette** (:func:`colour_order`) — the threads' colours clustered in CIELAB
+   (average linkage, cut at :data:`SPLIT_DELTA_E`): threads of one yarn colour differ by the
+   photo's noise and its uneven light, different yarn colours by more. A family whose
+   threads fall in one cluster is plain-dyed and keeps its one colour;
+3. **the colour repeat** — the shortest period of the threads' palette entries that the photo
+   shows at least twice with no thread disagreeing (a misread thread would otherwise shorten
+   it); where none is seen twice, the colour order of every thread the photo shows is the
+   repeat.
+
+Shapes: a canvas of ``ky × kx`` repeats of an (n_e, n_a) pattern at ``c`` px a cell is
+(ky·n_e·c, kx·n_a·c, 3) linear RGB; threads are counted from its top-left cell, which is
+pattern cell (0, 0).
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+#: threads whose colours (CIELAB, average linkage) are further apart than this are different
+#: yarn colours: above the spread of one yarn colour's threads measured on the plain-dyed DEV
+#: photos (docs/capture.md), below the nearest two yarn colours of the yarn-dyed ones
+SPLIT_DELTA_E = 12.0
+#: the middle share of each cell side whose pixels count (as the fidelity figures' family masks)
+CENTRE_SHARE = 0.5
+
+
+def thread_colours(canvas: np.ndarray, pattern: np.ndarray, c: int, *,
+                   centre_share: float = CENTRE_SHARE) -> dict[str, np.ndarray]:
+    """Each thread's colour on a canvas of whole repeats: the median, over the cells where it
+    lies on top, of each cell centre's median linear colour.
+
+    Parameters
+    ----------
+    canvas : (Y·c, X·c, 3) linear RGB, cell (v, u) being pattern cell (v mod n_e, u mod n_a).
+    pattern : (n_e, n_a), 1 = weft over warp.
+    c : canvas px per cell.
+
+    Returns
+    -------
+    {"warp": (X, 3), "weft": (Y, 3)} float64; NaN rows for a thread never on top.
+    """
+    p = np.asarray(pattern)
+    n_e, n_a = p.shape
+    a = np.asarray(canvas, np.float64)
+    rows, cols = a.shape[0] // c, a.shape[1] // c
+    lo = int(round((0.5 - centre_share / 2) * c))
+    hi = max(lo + 1, int(round((0.5 + centre_share / 2) * c)))
+    blocks = a[: rows * c, : cols * c].reshape(rows, c, cols, c, 3)[:, lo:hi, :, lo:hi]
+    cell = np.median(blocks.transpose(0, 2, 1, 3, 4).reshape(rows, cols, -1, 3), axis=2)  # (rows, cols, 3)
+    weft_on_top = p[np.arange(rows)[:, None] % n_e, np.arange(cols)[None, :] % n_a] == 1
+    out = {}
+    for family, shown, axis in (("warp", ~weft_on_top, 0), ("weft", weft_on_top, 1)):
+        values = np.where(shown[..., None], cell, np.nan)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # a thread never on top: NaN
+            out[family] = np.nanmedian(values, axis=axis)
+    return out
+
+
+@dataclass(frozen=True)
+class ColourOrder:
+    """One family's colour order as the photo shows it.
+
+    Attributes
+    ----------
+    labels : (N,) int, the palette entry of each thread the photo shows (-1: never on top)
+    repeat : threads in the colour repeat
+    sequence : (repeat,) int, the palette entry of each thread of the repeat, thread k of the
+        repeat being thread k, k + repeat, ... of the photo
+    palette : (P, 3) linear RGB, each entry's median colour in the photo
+    seen_twice : whether the photo shows the repeat at least twice (else it is every thread seen)
+    """
+
+    labels: np.ndarray
+    repeat: int
+    sequence: np.ndarray
+    palette: np.ndarray
+    seen_twice: bool
+
+    def to_json(self) -> dict:
+        """report.json's note on it."""
+        return {"repeat": int(self.repeat), "colours": int(len(self.palette)), "seen_twice": bool(self.seen_twice),
+                "sequence": self.sequence.astype(int).tolist()}
+
+
+def cluster_colours(lab: np.ndarray, *, split_delta_e: float = SPLIT_DELTA_E) -> np.ndarray:
+    """(N,) cluster labels, 0.., of CIELAB colours (N, 3): average linkage of their Euclidean
+    distances (ΔE 1976) cut at ``split_delta_e``, numbered by first appearance."""
+    from scipy.cluster.hierarchy import fcluster, linkage
+
+    if len(lab) < 2:
+        return np.zeros(len(lab), int)
+    raw = fcluster(linkage(lab, method="average"), t=split_delta_e, criterion="distance")
+    _, first, inverse = np.unique(raw, return_index=True, return_inverse=True)
+    rank = np.argsort(np.argsort(first))
+    return rank[inverse.ravel()]
+
+
+def colour_repeat(labels: np.ndarray) -> tuple[int, bool]:
+    """The shortest period ``k`` of ``labels`` (N,) (-1 entries: unknown, never disagreeing)
+    under which every thread agrees with every other thread ``k`` apart, and that the
+    labels hold at least twice (``k <= N / 2``): (k, True); none: (N, False)."""
+    n = len(labels)
+    known = labels >= 0
+    for k in range(1, n // 2 + 1):
+        a, b = labels[:-k], labels[k:]
+        both = known[:-k] & known[k:]
+        if np.all(a[both] == b[both]):
+            return k, True
+    return n, False
+
+
+def colour_order(colours: np.ndarray, *, split_delta_e: float = SPLIT_DELTA_E) -> ColourOrder | None:
+    """The colour order of one family from its threads' colours (N, 3) linear RGB (NaN rows:
+    threads never on top), or None when they are one yarn colour (a plain-dyed family)."""
+    from .colour import linear_to_lab
+
+    colours = np.asarray(colours, np.float64)
+    seen = np.all(np.isfinite(colours), axis=1)
+    if seen.sum() < 2:
+        return None
+    lab = linear_to_lab(np.clip(colours[seen], 0.0, 1.0))
+    found = cluster_colours(lab, split_delta_e=split_delta_e)
+    if found.max() == 0:
+        return None
+    labels = np.full(len(colours), -1)
+    labels[seen] = found
+    repeat, twice = colour_repeat(labels)
+    sequence = np.empty(repeat, int)
+    for k in range(repeat):  # the entry each thread of the repeat wears (the majority where seen)
+        votes = labels[k::repeat]
+        votes = votes[votes >= 0]
+        sequence[k] = np.bincount(votes).argmax() if votes.size else 0
+    used = np.unique(sequence)  # entries only unseen threads would wear are dropped
+    renumber = {int(e): i for i, e in enumerate(used)}
+    sequence = np.array([renumber[int(e)] for e in sequence])
+    labels = np.array([renumber.get(int(e), -1) for e in labels])
+    palette = np.stack([np.median(colours[labels == i], axis=0) for i in range(len(used))])
+    if len(palette) < 2:
+        return None
+    return ColourOrder(labels=labels, repeat=int(repeat), sequence=sequence, palette=palette, seen_twice=twice)

@@ -1,0 +1,211 @@
+"""Thread colours of a captured fabric: a colour per warp end and weft pick, solved on the photo.
+
+After the joint fit (§6) the fabric has one colour per yarn family, fitted on the photo's
+median repeat. A yarn-dyed fabric's threads differ: :mod:`weavecap.estimate.thread_colours`
+finds each family's colour order on the photo at its own scale (:mod:`weavecap.fit.compare`'s
+view, every whole repeat), and this stage solves each palette entry's body colours with
+everything else of the fitted fabric held, as :func:`weavecap.fit.joint.match_family_colours`
+does for the family colours (§5.2), per entry: the render is linear in the body colours, so
+with one render of the view whose ordered families are black (``dark``) and one at the
+current colours, each channel of an entry is scaled by the median, over its threads, of
+``(photo − dark) / (render − dark)`` at the threads' float centres. The clipping at the
+camera's white and the blur across yarn edges make that a step, not the solution: it is
+repeated :data:`SOLVE_ROUNDS` times. R^B and S^B scale together (the photo does not tell them
+apart, as for the families). A family whose threads are one colour keeps its own.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..params import Fabric, PaletteEntry, ThreadColours, Threads
+from .compare import PhotoView, shown, view_scene
+
+#: rounds of the per-entry scaling (the first lands within a few ΔE, the rest take up the
+#: clipping and the blur across yarn edges)
+SOLVE_ROUNDS = 3
+#: an entry's starting colour, per channel, is its family's, at least this (a family colour
+#: at 0 could not be scaled to a stripe's colour)
+START_FLOOR = 0.05
+#: a thread's render must lift its colour above the dark render by this much (linear) for its
+#: ratio to count
+MIN_SIGNAL = 1e-3
+#: the middle share of a cell across a yarn that the yarn fills (:func:`flattening_factor`)
+YARN_BAND = 0.7
+#: the largest gain (and smallest, inverted) a pixel is flattened by
+MAX_FLATTENING = 4.0
+
+
+def _orders_threads(fabric: Fabric, orders: dict, entries: dict) -> Threads:
+    """:class:`Threads` with each ordered family's sequence and these entry colours
+    (``entries[family]``: (P, 2, 3) R^B and S^B per entry)."""
+    def order(family: str) -> ThreadColours | None:
+        if family not in orders:
+            return None
+        palette = tuple(PaletteEntry(tuple(float(v) for v in e[0]), tuple(float(v) for v in e[1]))
+                        for e in np.clip(entries[family], 0.0, 1.0))
+        return ThreadColours(palette=palette, sequence=tuple(int(k) for k in orders[family].sequence))
+
+    return Threads(warp=order("warp"), weft=order("weft"))
+
+
+def thread_delta_e(photo: dict, render: dict) -> dict:
+    """Per family, CIEDE2000 between each thread's colour in the photo and in the render
+    ({"warp": (N,), ...}, NaN for threads never on top)."""
+    from skimage.color import deltaE_ciede2000
+
+    from ..estimate.colour import linear_to_lab
+
+    out = {}
+    for family in photo:
+        a, b = np.asarray(photo[family]), np.asarray(render[family])
+        ok = np.all(np.isfinite(a), axis=1) & np.all(np.isfinite(b), axis=1)
+        de = np.full(len(a), np.nan)
+        if ok.any():
+            de[ok] = deltaE_ciede2000(linear_to_lab(np.clip(a[ok], 0, 1)), linear_to_lab(np.clip(b[ok], 0, 1)))
+        out[family] = de
+    return out
+
+
+def capture_threads(view: PhotoView, fabric: Fabric, rig, *, blur_px: float, spp: int,
+                    rounds: int = SOLVE_ROUNDS) -> tuple[Fabric, dict]:
+    """``fabric`` with the thread colours the photo shows (unchanged where each family is one
+    colour), and the report's note: per family its colour order
+    (:meth:`weavecap.estimate.thread_colours.ColourOrder.to_json`) and each thread's CIEDE2000
+    against the photo's, before (family colours) and after the solve.
+
+    Parameters
+    ----------
+    view : the photo at its own scale over whole repeats (:func:`weavecap.fit.compare.photo_view`)
+    fabric : the fitted fabric (family colours)
+    rig : the fitted light rig (its gain)
+    blur_px : the photo's blur in view pixels
+    spp : samples per pixel of the renders
+    """
+    from ..estimate.thread_colours import colour_order, thread_colours
+
+    pattern, c = fabric.pattern, view.c
+    photo = thread_colours(view.canvas, pattern, c)
+    orders = {family: o for family in ("warp", "weft") if (o := colour_order(photo[family])) is not None}
+    if not orders:
+        return fabric, {"colour_orders": {}}
+    fs = view_scene(fabric, rig, view, spp=spp)  # one geometry; each render re-shades it
+
+    def measure(entries: dict) -> dict:
+        fs.set_threads(_orders_threads(fabric, orders, entries))
+        return thread_colours(shown(fs, view, blur_px), pattern, c)
+
+    family_colour = {f: np.stack([np.asarray(fabric.get(f"{f}.body_reflection"), np.float64),
+                                  np.asarray(fabric.get(f"{f}.body_subsurface"), np.float64)]) for f in orders}
+    entries = {f: np.repeat(np.maximum(family_colour[f], START_FLOOR)[None], len(orders[f].palette), axis=0)
+               for f in orders}
+    dark = measure({f: np.zeros_like(e) for f, e in entries.items()})
+    before = measure({f: np.repeat(family_colour[f][None], len(o.palette), axis=0) for f, o in orders.items()})
+    for _ in range(rounds):
+        measured = measure(entries)
+        for f, order in orders.items():
+            signal = measured[f] - dark[f]
+            wanted = photo[f] - dark[f]
+            for q in range(len(order.palette)):
+                mine = (order.labels == q)[:, None] & np.isfinite(signal) & np.isfinite(wanted) & (signal > MIN_SIGNAL)
+                for ch in range(3):
+                    if mine[:, ch].any():
+                        scale = float(np.median(wanted[mine[:, ch], ch] / signal[mine[:, ch], ch]))
+                        entries[f][q, :, ch] = np.clip(entries[f][q, :, ch] * max(scale, 0.0), 0.0, 1.0)
+    measured = measure(entries)
+    de_before, de_after = thread_delta_e(photo, before), thread_delta_e(photo, measured)
+    note = {}
+    for f, order in orders.items():
+        note[f] = {**order.to_json(), "delta_e_before": _summary(de_before[f]), "delta_e": _summary(de_after[f])}
+    return fabric.with_threads(_orders_threads(fabric, orders, entries)), {"colour_orders": note}
+
+
+def _summary(values: np.ndarray) -> dict:
+    """Median and largest of per-thread ΔE (threads never on top left out)."""
+    v = np.asarray(values)[np.isfinite(values)]
+    if not v.size:
+        return {"median": None, "max": None}
+    return {"median": round(float(np.median(v)), 2), "max": round(float(v.max()), 2)}
+
+
+def flattened(prepared, cells, pattern: np.ndarray) -> tuple[object, dict]:
+    """The prepared photo with its thread colours divided out, for the joint fit, and the
+    report's note.
+
+    The fit compares one repeat of the fabric with the photo's median repeat (§6): on a
+    yarn-dyed fabric that median mixes the colours of whichever threads each repeat holds, and
+    the fit explains the mixture with its other parameters (the highlights, the transmission),
+    which no thread colour solved afterwards can undo. So where the photo shows a colour order
+    (:func:`weavecap.estimate.thread_colours.colour_order`, read on the lattice of ``cells``
+    with the weave ``pattern``, both the pre-estimate's), each cell of the rectified photo is
+    scaled, per channel, by its top thread's palette entry's colour over its family's
+    commonest entry's: the fit then sees one colour per family, that commonest one, and the
+    other entries are solved after it (:func:`capture_threads`) on the photo as shot.
+
+    Parameters
+    ----------
+    prepared : :class:`weavecap.prepare.Prepared`; only its rectified image changes
+    cells : the repeat's cells in the regularized box's pixels
+    pattern : (n_e, n_a) the weave, 1 = weft over warp
+
+    Returns
+    -------
+    (prepared, note): ``prepared`` itself and ``{}`` where no family shows a colour order.
+    """
+    import dataclasses
+
+    from ..estimate.thread_colours import colour_order, thread_colours
+    from .compare import view_cell_px
+    from .target import repeats_canvas, shifted
+
+    image = np.asarray(prepared.rectification.image, np.float32)
+    grid = shifted(cells, prepared.regularized.box)
+    c, _ = view_cell_px(grid)
+    canvas, _, lattice = repeats_canvas(image, grid, c)
+    measured = thread_colours(canvas, pattern, c)
+    orders = {f: o for f in ("warp", "weft") if (o := colour_order(measured[f])) is not None}
+    if not orders:
+        return prepared, {}
+    factor = flattening_factor(image.shape[:2], lattice, pattern, orders)
+    out = dataclasses.replace(prepared, rectification=dataclasses.replace(prepared.rectification,
+                                                                           image=(image * factor).astype(np.float32)))
+    return out, {f: o.to_json() for f, o in orders.items()}
+
+
+def flattening_factor(shape: tuple[int, int], lattice, pattern: np.ndarray, orders: dict) -> np.ndarray:
+    """(H, W, 3) per-pixel gains that give every thread of an ordered family its family's
+    commonest palette entry's colour (:func:`flattened`), for an image of ``shape`` whose
+    lattice of cells (every whole repeat, thread 0 at its first cell) is ``lattice``.
+
+    Model-free, per cell: the yarn on top fills the middle band of the cell along its own
+    direction (a warp's columns, a weft's rows) and the crossing yarn the middle band across it,
+    under it; those bands take their thread's gain, the cell's corners (gaps between the yarns:
+    the backdrop, which fixes the rig's gain) keep 1. Gains are held within
+    [1 / :data:`MAX_FLATTENING`, :data:`MAX_FLATTENING`]: a highlight on a dark thread is no
+    brighter for being scaled, so a stronger gain would make highlights the fit explains away."""
+    from scipy.ndimage import gaussian_filter
+
+    n_e, n_a = np.asarray(pattern).shape
+    h, w = shape
+    pitch_y, pitch_x = float(np.diff(lattice.rows).mean()), float(np.diff(lattice.cols).mean())
+    ty = (np.arange(h) + 0.5 - lattice.rows[0]) / pitch_y  # position in wefts
+    tx = (np.arange(w) + 0.5 - lattice.cols[0]) / pitch_x  # ... in warps
+    row, col = np.floor(ty).astype(int), np.floor(tx).astype(int)
+    gain = {}
+    for family, index in (("warp", col), ("weft", row)):
+        order = orders.get(family)
+        if order is None:
+            gain[family] = np.ones((index.size, 3), np.float32)
+            continue
+        common = np.bincount(order.sequence, minlength=len(order.palette)).argmax()
+        ratio = np.clip(order.palette[common] / np.maximum(order.palette, 1e-4), 1 / MAX_FLATTENING, MAX_FLATTENING)
+        gain[family] = ratio[order.sequence[index % order.repeat]].astype(np.float32)
+    in_warp = np.abs(tx - col - 0.5) < YARN_BAND / 2  # (w,): within the middle band of a warp's column
+    in_weft = np.abs(ty - row - 0.5) < YARN_BAND / 2  # (h,)
+    weft_on_top = np.asarray(pattern)[row[:, None] % n_e, col[None, :] % n_a] == 1  # (h, w)
+    warp_here = np.where(weft_on_top, in_warp[None, :] & ~in_weft[:, None], in_warp[None, :])
+    weft_here = np.where(weft_on_top, in_weft[:, None], in_weft[:, None] & ~in_warp[None, :])
+    factor = np.ones((h, w, 3), np.float32)
+    factor = np.where(warp_here[..., None], gain["warp"][None, :, :], factor)
+    factor = np.where(weft_here[..., None], gain["weft"][:, None, :], factor)
+    return gaussian_filter(factor, (1.0, 1.0, 0), mode="nearest")
