@@ -3,25 +3,25 @@
 Wu et al. 2025 give each yarn family one colour (§5.2); a yarn-dyed fabric (stripes, checks,
 plaids, colour-and-weave effects) has a colour per thread, repeating over a *colour repeat*
 that need not be the weave's. This stage reads them off the photo, model-free, on the
-registered lattice of the fitted weave over every whole repeat the photo holds (a canvas of
-``c`` px a cell, :func:`weavecap.fit.target.repeats_canvas`):
+registered lattice of the fitted weave over every whole cell the photo holds (a canvas of
+``c`` px a cell, :func:`weavecap.fit.target.cells_canvas`):
 
 1. **each thread's colour** (:func:`thread_colours`) — the median linear colour of the centres
    of the cells where that warp end (weft pick) lies on top, first per cell, then over the
    cells: a float seen in many cells along the thread, so a hair, a flaw or a highlight in a
    few of them does not move it;
 2. **the palette** (:func:`colour_order`) — the threads' colours clustered in CIELAB
-   (average linkage, cut at :data:`SPLIT_DELTA_E`): threads of one yarn colour differ by the
-   photo's noise and its uneven light, different yarn colours by more. A family whose
-   threads fall in one cluster is plain-dyed and keeps its one colour;
+   (average linkage, cut at :data:`SPLIT_DELTA_E`; a colour worn by one thread alone joins
+   the nearest other): threads of one yarn colour differ by the photo's noise and its uneven
+   light, different yarn colours by more. A family whose threads fall in one cluster, or of
+   fewer than :data:`MIN_THREADS` threads seen, is plain-dyed and keeps its one colour;
 3. **the colour repeat** — the shortest period of the threads' palette entries that the photo
    shows at least twice with no thread disagreeing (a misread thread would otherwise shorten
    it); where none is seen twice, the colour order of every thread the photo shows is the
    repeat.
 
-Shapes: a canvas of ``ky × kx`` repeats of an (n_e, n_a) pattern at ``c`` px a cell is
-(ky·n_e·c, kx·n_a·c, 3) linear RGB; threads are counted from its top-left cell, which is
-pattern cell (0, 0).
+Shapes: a canvas of Y × X cells at ``c`` px a cell is (Y·c, X·c, 3) linear RGB; threads are
+counted from its top-left cell (which is pattern cell ``first``).
 """
 
 from __future__ import annotations
@@ -37,16 +37,20 @@ import numpy as np
 SPLIT_DELTA_E = 12.0
 #: the middle share of each cell side whose pixels count (as the fidelity figures' family masks)
 CENTRE_SHARE = 0.5
+#: a family needs at least this many threads seen for a colour order: on fewer, a thread read
+#: off its yarn (a cell a fraction of a pitch off at the photo's edge) passes for a stripe
+MIN_THREADS = 8
 
 
-def thread_colours(canvas: np.ndarray, pattern: np.ndarray, c: int, *,
+def thread_colours(canvas: np.ndarray, pattern: np.ndarray, c: int, *, first: tuple[int, int] = (0, 0),
                    centre_share: float = CENTRE_SHARE) -> dict[str, np.ndarray]:
-    """Each thread's colour on a canvas of whole repeats: the median, over the cells where it
+    """Each thread's colour on a canvas of whole cells: the median, over the cells where it
     lies on top, of each cell centre's median linear colour.
 
     Parameters
     ----------
-    canvas : (Y·c, X·c, 3) linear RGB, cell (v, u) being pattern cell (v mod n_e, u mod n_a).
+    canvas : (Y·c, X·c, 3) linear RGB, cell (v, u) being pattern cell ((v + v0) mod n_e,
+        (u + u0) mod n_a) for ``first`` = (v0, u0).
     pattern : (n_e, n_a), 1 = weft over warp.
     c : canvas px per cell.
 
@@ -54,6 +58,24 @@ def thread_colours(canvas: np.ndarray, pattern: np.ndarray, c: int, *,
     -------
     {"warp": (X, 3), "weft": (Y, 3)} float64; NaN rows for a thread never on top.
     """
+    return {family: reading[0] for family, reading in _readings(canvas, pattern, c, first, centre_share).items()}
+
+
+def thread_spread(canvas: np.ndarray, pattern: np.ndarray, c: int, *, first: tuple[int, int] = (0, 0),
+                  centre_share: float = CENTRE_SHARE) -> dict[str, np.ndarray]:
+    """How much each thread's colour varies along it: the median, over the cells where it lies
+    on top, of the CIELAB distance (ΔE 1976) of the cell's colour from the thread's
+    (:func:`thread_colours`'s arguments). {"warp": (X,), "weft": (Y,)}; NaN for a thread never
+    on top. One yarn colour varies along a thread by the photo's noise, its light and its hair;
+    a misread weave (cells of the other family counted as this one's) by a yarn colour."""
+    return {family: reading[1] for family, reading in _readings(canvas, pattern, c, first, centre_share).items()}
+
+
+def _readings(canvas, pattern, c: int, first: tuple[int, int], centre_share: float) -> dict:
+    """Per family, (each thread's colour (N, 3), its spread (N,)): :func:`thread_colours`,
+    :func:`thread_spread`."""
+    from .colour import linear_to_lab
+
     p = np.asarray(pattern)
     n_e, n_a = p.shape
     a = np.asarray(canvas, np.float64)
@@ -62,13 +84,17 @@ def thread_colours(canvas: np.ndarray, pattern: np.ndarray, c: int, *,
     hi = max(lo + 1, int(round((0.5 + centre_share / 2) * c)))
     blocks = a[: rows * c, : cols * c].reshape(rows, c, cols, c, 3)[:, lo:hi, :, lo:hi]
     cell = np.median(blocks.transpose(0, 2, 1, 3, 4).reshape(rows, cols, -1, 3), axis=2)  # (rows, cols, 3)
-    weft_on_top = p[np.arange(rows)[:, None] % n_e, np.arange(cols)[None, :] % n_a] == 1
+    weft_on_top = p[(np.arange(rows)[:, None] + first[0]) % n_e, (np.arange(cols)[None, :] + first[1]) % n_a] == 1
+    lab = linear_to_lab(np.clip(cell, 0.0, 1.0))
     out = {}
     for family, shown, axis in (("warp", ~weft_on_top, 0), ("weft", weft_on_top, 1)):
-        values = np.where(shown[..., None], cell, np.nan)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)  # a thread never on top: NaN
-            out[family] = np.nanmedian(values, axis=axis)
+            colour = np.nanmedian(np.where(shown[..., None], cell, np.nan), axis=axis)
+            centre = linear_to_lab(np.clip(colour, 0.0, 1.0))
+            distance = np.linalg.norm(lab - np.expand_dims(centre, axis), axis=-1)
+            spread = np.nanmedian(np.where(shown, distance, np.nan), axis=axis)
+        out[family] = (colour, spread)
     return out
 
 
@@ -100,12 +126,21 @@ class ColourOrder:
 
 def cluster_colours(lab: np.ndarray, *, split_delta_e: float = SPLIT_DELTA_E) -> np.ndarray:
     """(N,) cluster labels, 0.., of CIELAB colours (N, 3): average linkage of their Euclidean
-    distances (ΔE 1976) cut at ``split_delta_e``, numbered by first appearance."""
+    distances (ΔE 1976) cut at ``split_delta_e``, a cluster of one thread joined to the nearest
+    other (one thread alone is as likely a misread as a stripe), numbered by first appearance."""
     from scipy.cluster.hierarchy import fcluster, linkage
 
     if len(lab) < 2:
         return np.zeros(len(lab), int)
     raw = fcluster(linkage(lab, method="average"), t=split_delta_e, criterion="distance")
+    while True:
+        ids, counts = np.unique(raw, return_counts=True)
+        if len(ids) < 2 or counts.min() > 1:
+            break
+        alone = ids[np.argmin(counts)]
+        others = ids[ids != alone]
+        centres = np.stack([lab[raw == k].mean(axis=0) for k in others])
+        raw[raw == alone] = others[np.argmin(np.linalg.norm(centres - lab[raw == alone][0], axis=1))]
     _, first, inverse = np.unique(raw, return_index=True, return_inverse=True)
     rank = np.argsort(np.argsort(first))
     return rank[inverse.ravel()]
@@ -132,7 +167,7 @@ def colour_order(colours: np.ndarray, *, split_delta_e: float = SPLIT_DELTA_E) -
 
     colours = np.asarray(colours, np.float64)
     seen = np.all(np.isfinite(colours), axis=1)
-    if seen.sum() < 2:
+    if seen.sum() < MIN_THREADS:
         return None
     lab = linear_to_lab(np.clip(colours[seen], 0.0, 1.0))
     found = cluster_colours(lab, split_delta_e=split_delta_e)

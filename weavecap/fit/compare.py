@@ -2,8 +2,8 @@
 
 The fit works on the photo's median repeat (:mod:`weavecap.fit.target`); a person judges a
 capture against what they shot: several repeats, each thread in its colour, the photo's own
-irregularities. :func:`photo_view` takes the rectified photo over every whole repeat of the
-fitted weave on the registered lattice (at about its own pixels: a cell of ``c`` ≈ the yarn
+irregularities. :func:`photo_view` takes the rectified photo over every whole cell of the
+fitted weave's registered lattice (at about its own pixels: a cell of ``c`` ≈ the yarn
 pitch, the lattice's drift followed as the median repeat's is), :func:`render_view` renders
 the captured fabric over the same cells as photographed (the camera's white level and blur,
 the fit's light rig and gain), so the two are registered pixel for pixel; the pixel figures
@@ -23,34 +23,42 @@ from ..params import Fabric
 
 #: a view's cell side in pixels: the photo's own pitch, held within these bounds
 MIN_CELL_PX, MAX_CELL_PX = 8, 40
-#: the view spans at most this many pixels a side (whole repeats, the middle ones kept): the
+#: the view spans at most this many pixels a side (whole cells, the middle ones kept): the
 #: render of it is one of a few kernels of ~1 s on 2 cores
 MAX_VIEW_PX = 640
-#: ... and at most this many repeats a side (the renderer's limit)
-MAX_VIEW_REPEATS = 64
+#: ... and fewer than this many repeats a side (the renderer's limit is 64; the view's cells
+#: may start and end inside a repeat)
+MAX_VIEW_REPEATS = 63
 #: compare.png's difference panel: |photo − fit| times this
 DIFFERENCE_GAIN = 4.0
 
 
 @dataclass(frozen=True)
 class PhotoView:
-    """The photo over whole repeats of the fitted weave, at about its own scale.
+    """The photo over whole cells of the fitted weave's lattice, at about its own scale.
 
     Attributes
     ----------
-    canvas : (ky·n_e·c, kx·n_a·c, 3) float32 linear RGB, cell (v, u) being pattern cell
-        (v mod n_e, u mod n_a)
+    canvas : (Y·c, X·c, 3) float32 linear RGB, cell (v, u) being pattern cell ((v + v0) mod
+        n_e, (u + u0) mod n_a)
     c : pixels a cell side (the photo's mean pitch, within [MIN_CELL_PX, MAX_CELL_PX])
-    repeats : (ky, kx) repeats of the weave down and across
+    first : (v0, u0), the canvas's first cell counted from a repeat's first cell
+    shape : (n_e, n_a) of the weave repeat
     pitch_px : the photo's yarn pitch in its rectified pixels (mean of both directions)
     white : the camera's white level (:func:`weavecap.model.render.white_level`)
     """
 
     canvas: np.ndarray
     c: int
-    repeats: tuple[int, int]
+    first: tuple[int, int]
+    shape: tuple[int, int]
     pitch_px: float
     white: float
+
+    @property
+    def cells(self) -> tuple[int, int]:
+        """(Y, X) cells of the canvas."""
+        return self.canvas.shape[0] // self.c, self.canvas.shape[1] // self.c
 
 
 def view_cell_px(cells: CellGrid) -> tuple[int, float]:
@@ -62,15 +70,14 @@ def view_cell_px(cells: CellGrid) -> tuple[int, float]:
 
 def photo_view(image: np.ndarray, cells: CellGrid, fabric: Fabric, rig, *, spp: int, held: bool = False,
                max_px: int = MAX_VIEW_PX) -> PhotoView:
-    """The photo ``image`` (rectified, (H, W, 3) linear) over the whole repeats of the lattice
+    """The photo ``image`` (rectified, (H, W, 3) linear) over the whole cells of the lattice
     of ``cells`` (the fitted repeat in its pixels), read along the lattice's drift measured
-    against a render of ``fabric`` under ``rig`` (:func:`weavecap.fit.target.repeats_canvas`,
-    ``held`` as the fit's target was read), the middle repeats kept within ``max_px`` and
-    MAX_VIEW_REPEATS a side."""
+    against a render of ``fabric`` under ``rig`` (:func:`weavecap.fit.target.cells_canvas`,
+    ``held`` as the fit's target was read), the middle cells kept within ``max_px`` a side."""
     from ..estimate.forward import BLUR_CELLS
     from ..model.render import as_photographed, render_numpy, white_level
     from ..model.scene import View, build_scene
-    from .target import repeats_canvas
+    from .target import cells_canvas
 
     c, pitch = view_cell_px(cells)
     n_e, n_a = fabric.shape
@@ -78,31 +85,36 @@ def photo_view(image: np.ndarray, cells: CellGrid, fabric: Fabric, rig, *, spp: 
     single = fabric.with_threads(None)
     model = as_photographed(render_numpy(build_scene(single, View(tiles=(1, 1), size=c * max(n_e, n_a), spp=spp),
                                                      light=rig)), BLUR_CELLS * c, white)
-    canvas, _, _ = repeats_canvas(image, cells, c, model, hold_phase=held)
-    ky, kx = canvas.shape[0] // (n_e * c), canvas.shape[1] // (n_a * c)
-    keep_y = max(1, min(ky, MAX_VIEW_REPEATS, max_px // (n_e * c)))
-    keep_x = max(1, min(kx, MAX_VIEW_REPEATS, max_px // (n_a * c)))
-    y0, x0 = (ky - keep_y) // 2, (kx - keep_x) // 2
-    canvas = canvas[y0 * n_e * c:(y0 + keep_y) * n_e * c, x0 * n_a * c:(x0 + keep_x) * n_a * c]
-    return PhotoView(canvas=np.ascontiguousarray(canvas, np.float32), c=c, repeats=(keep_y, keep_x), pitch_px=pitch,
+    canvas, first, _ = cells_canvas(image, cells, c, model, hold_phase=held)
+    rows, cols = canvas.shape[0] // c, canvas.shape[1] // c
+    keep = [max(1, min(k, max_px // c, MAX_VIEW_REPEATS * n)) for k, n in ((rows, n_e), (cols, n_a))]
+    y0, x0 = (rows - keep[0]) // 2, (cols - keep[1]) // 2
+    canvas = canvas[y0 * c:(y0 + keep[0]) * c, x0 * c:(x0 + keep[1]) * c]
+    return PhotoView(canvas=np.ascontiguousarray(canvas, np.float32), c=c,
+                     first=((first[0] + y0) % n_e, (first[1] + x0) % n_a), shape=(n_e, n_a), pitch_px=pitch,
                      white=white)
 
 
 def view_scene(fabric: Fabric, rig, view: PhotoView, *, spp: int):
     """The :class:`weavecap.model.scene.FabricScene` of ``fabric`` under ``rig`` over the
-    view's cells (its render is registered on ``view.canvas``)."""
+    whole repeats that hold the view's cells (:func:`shown` crops its render to them)."""
     from ..model.scene import View, build_scene
 
-    h, w = view.canvas.shape[:2]
-    return build_scene(fabric, View(tiles=view.repeats, size=max(h, w), spp=spp), light=rig)
+    (rows, cols), (v0, u0), (n_e, n_a) = view.cells, view.first, view.shape
+    tiles = (-(-(v0 + rows) // n_e), -(-(u0 + cols) // n_a))
+    return build_scene(fabric, View(tiles=tiles, size=view.c * max(tiles[0] * n_e, tiles[1] * n_a), spp=spp),
+                       light=rig)
 
 
-def shown(fs, view: PhotoView, blur_px: float) -> np.ndarray:
-    """A render of a :func:`view_scene` as photographed: clipped at the view's white level,
-    blurred by ``blur_px`` view pixels; (H, W, 3) float32."""
+def shown(fs, view: PhotoView, blur_px: float, image: np.ndarray | None = None) -> np.ndarray:
+    """A render of a :func:`view_scene` (or ``image``, one already made) as photographed —
+    clipped at the view's white level, blurred by ``blur_px`` view pixels — and cropped to the
+    view's cells: (Y·c, X·c, 3) float32, registered on ``view.canvas``."""
     from ..model.render import as_photographed, render_numpy
 
-    return as_photographed(render_numpy(fs), blur_px, view.white)
+    (rows, cols), (v0, u0), c = view.cells, view.first, view.c
+    full = as_photographed(render_numpy(fs) if image is None else image, blur_px, view.white)
+    return full[v0 * c:(v0 + rows) * c, u0 * c:(u0 + cols) * c]
 
 
 def render_view(fabric: Fabric, rig, view: PhotoView, *, blur_px: float, spp: int) -> np.ndarray:
@@ -162,7 +174,7 @@ class PhotoScale:
     ----------
     fabric : the captured fabric with the thread colours the photo shows
     threads : report.json's ``threads`` (the colour orders found and each thread's ΔE)
-    view : the photo over whole repeats; render : ``fabric`` rendered over it as photographed
+    view : the photo over whole cells; render : ``fabric`` rendered over it as photographed
     figures : :class:`weavecap.fit.fidelity.PixelFidelity` of the render against the view
     blur_px : the camera's blur the render was shown with, view pixels
     """
@@ -178,15 +190,15 @@ class PhotoScale:
                 exposure: float = 1.0) -> np.ndarray:
         """compare.png (:func:`compare_image`), shown at the photo's own ``exposure``, with the
         pixel figures as the first caption line and ``captions`` (the repeat's figures) after."""
-        ky, kx = self.view.repeats
-        head = f"photo scale, {ky}x{kx} repeats: " + self.figures.caption()
+        rows, cols = self.view.cells
+        head = f"photo scale, {rows}x{cols} yarns: " + self.figures.caption()
         return compare_image(exposure * self.view.canvas, exposure * self.render, exposure * repeat_photo,
                              exposure * repeat_render, [head, *("median repeat: " + c for c in captions)])
 
 
 def at_photo_scale(image: np.ndarray, fitted, fabric: Fabric, *, c: int, spp: int) -> PhotoScale:
     """The fitted capture at the photo's own scale: the view of ``image`` (the rectified photo
-    the fit saw) over whole repeats on ``fitted``'s registration
+    the fit saw) over whole cells on ``fitted``'s registration
     (:class:`weavecap.fit.rounds.RegisteredFit`, cells in ``image`` pixels), the thread
     colours it shows (:func:`weavecap.fit.threads.capture_threads`), ``fabric`` with them
     rendered over it under the fitted rig, and the pixel figures
@@ -207,7 +219,8 @@ def at_photo_scale(image: np.ndarray, fitted, fabric: Fabric, *, c: int, spp: in
     view = photo_view(image, fitted.cells, fabric, fitted.rig, spp=spp, held=fitted.held)
     fabric, threads = capture_threads(view, fabric, fitted.rig, blur_px=fitted.blur_px * view.c / c, spp=spp)
     fs = view_scene(fabric, fitted.rig, view, spp=spp)
-    blur_px, _ = photo_blur(render_numpy(fs), view.canvas, view.c)
-    render = shown(fs, view, blur_px)
+    sharp = render_numpy(fs)
+    blur_px, _ = photo_blur(shown(fs, view, 0.0, sharp), view.canvas, view.c)
+    render = shown(fs, view, blur_px, sharp)
     return PhotoScale(fabric=fabric, threads=threads, view=view, render=render,
                       figures=pixel_fidelity(view.canvas, render, view.c), blur_px=blur_px)

@@ -36,17 +36,19 @@ YARN_BAND = 0.7
 MAX_FLATTENING = 4.0
 
 
-def _orders_threads(fabric: Fabric, orders: dict, entries: dict) -> Threads:
+def _orders_threads(orders: dict, entries: dict, first: tuple[int, int]) -> Threads:
     """:class:`Threads` with each ordered family's sequence and these entry colours
-    (``entries[family]``: (P, 2, 3) R^B and S^B per entry)."""
-    def order(family: str) -> ThreadColours | None:
+    (``entries[family]``: (P, 2, 3) R^B and S^B per entry). The orders were read on a canvas
+    whose first cell is cell ``first`` (v0, u0) of a repeat: a params file counts threads from
+    the repeat's, so each sequence turns by that many threads."""
+    def order(family: str, shift: int) -> ThreadColours | None:
         if family not in orders:
             return None
         palette = tuple(PaletteEntry(tuple(float(v) for v in e[0]), tuple(float(v) for v in e[1]))
                         for e in np.clip(entries[family], 0.0, 1.0))
-        return ThreadColours(palette=palette, sequence=tuple(int(k) for k in orders[family].sequence))
+        return ThreadColours(palette=palette, sequence=tuple(int(k) for k in np.roll(orders[family].sequence, shift)))
 
-    return Threads(warp=order("warp"), weft=order("weft"))
+    return Threads(warp=order("warp", first[1]), weft=order("weft", first[0]))
 
 
 def thread_delta_e(photo: dict, render: dict) -> dict:
@@ -76,7 +78,7 @@ def capture_threads(view: PhotoView, fabric: Fabric, rig, *, blur_px: float, spp
 
     Parameters
     ----------
-    view : the photo at its own scale over whole repeats (:func:`weavecap.fit.compare.photo_view`)
+    view : the photo at its own scale over whole cells (:func:`weavecap.fit.compare.photo_view`)
     fabric : the fitted fabric (family colours)
     rig : the fitted light rig (its gain)
     blur_px : the photo's blur in view pixels
@@ -85,15 +87,15 @@ def capture_threads(view: PhotoView, fabric: Fabric, rig, *, blur_px: float, spp
     from ..estimate.thread_colours import colour_order, thread_colours
 
     pattern, c = fabric.pattern, view.c
-    photo = thread_colours(view.canvas, pattern, c)
+    photo = thread_colours(view.canvas, pattern, c, first=view.first)
     orders = {family: o for family in ("warp", "weft") if (o := colour_order(photo[family])) is not None}
     if not orders:
         return fabric, {"colour_orders": {}}
     fs = view_scene(fabric, rig, view, spp=spp)  # one geometry; each render re-shades it
 
     def measure(entries: dict) -> dict:
-        fs.set_threads(_orders_threads(fabric, orders, entries))
-        return thread_colours(shown(fs, view, blur_px), pattern, c)
+        fs.set_threads(_orders_threads(orders, entries, view.first))
+        return thread_colours(shown(fs, view, blur_px), pattern, c, first=view.first)
 
     family_colour = {f: np.stack([np.asarray(fabric.get(f"{f}.body_reflection"), np.float64),
                                   np.asarray(fabric.get(f"{f}.body_subsurface"), np.float64)]) for f in orders}
@@ -117,7 +119,7 @@ def capture_threads(view: PhotoView, fabric: Fabric, rig, *, blur_px: float, spp
     note = {}
     for f, order in orders.items():
         note[f] = {**order.to_json(), "delta_e_before": _summary(de_before[f]), "delta_e": _summary(de_after[f])}
-    return fabric.with_threads(_orders_threads(fabric, orders, entries)), {"colour_orders": note}
+    return fabric.with_threads(_orders_threads(orders, entries, view.first)), {"colour_orders": note}
 
 
 def _summary(values: np.ndarray) -> dict:
@@ -128,7 +130,7 @@ def _summary(values: np.ndarray) -> dict:
     return {"median": round(float(np.median(v)), 2), "max": round(float(v.max()), 2)}
 
 
-def flattened(prepared, cells, pattern: np.ndarray) -> tuple[object, dict]:
+def flattened(prepared, cells, start: Fabric, *, spp: int) -> tuple[object, dict]:
     """The prepared photo with its thread colours divided out, for the joint fit, and the
     report's note.
 
@@ -136,17 +138,19 @@ def flattened(prepared, cells, pattern: np.ndarray) -> tuple[object, dict]:
     yarn-dyed fabric that median mixes the colours of whichever threads each repeat holds, and
     the fit explains the mixture with its other parameters (the highlights, the transmission),
     which no thread colour solved afterwards can undo. So where the photo shows a colour order
-    (:func:`weavecap.estimate.thread_colours.colour_order`, read on the lattice of ``cells``
-    with the weave ``pattern``, both the pre-estimate's), each cell of the rectified photo is
-    scaled, per channel, by its top thread's palette entry's colour over its family's
-    commonest entry's: the fit then sees one colour per family, that commonest one, and the
-    other entries are solved after it (:func:`capture_threads`) on the photo as shot.
+    (:func:`weavecap.estimate.thread_colours.colour_order`, read with the weave of ``start``,
+    the pre-estimate, on ``cells`` registered on a render of it and along the lattice's drift,
+    as the fit's first round reads its target), each cell of the rectified photo is scaled,
+    per channel, by its top thread's palette entry's colour over its family's commonest
+    entry's: the fit then sees one colour per family, that commonest one, and the other
+    entries are solved after it (:func:`capture_threads`) on the photo as shot.
 
     Parameters
     ----------
     prepared : :class:`weavecap.prepare.Prepared`; only its rectified image changes
     cells : the repeat's cells in the regularized box's pixels
-    pattern : (n_e, n_a) the weave, 1 = weft over warp
+    start : the pre-estimated fabric (its pattern and looks place the cells)
+    spp : samples per pixel of the render the cells are registered on
 
     Returns
     -------
@@ -156,26 +160,35 @@ def flattened(prepared, cells, pattern: np.ndarray) -> tuple[object, dict]:
 
     from ..estimate.thread_colours import colour_order, thread_colours
     from .compare import view_cell_px
-    from .target import repeats_canvas, shifted
+    from .target import cells_canvas, shifted
+
+    from ..estimate.forward import BLUR_CELLS, RepeatRenderer
+    from ..model.render import as_photographed, white_level
+    from .target import register_cells
 
     image = np.asarray(prepared.rectification.image, np.float32)
-    grid = shifted(cells, prepared.regularized.box)
-    c, _ = view_cell_px(grid)
-    canvas, _, lattice = repeats_canvas(image, grid, c)
-    measured = thread_colours(canvas, pattern, c)
+    pattern = start.pattern
+    c, _ = view_cell_px(shifted(cells, prepared.regularized.box))
+    model = as_photographed(RepeatRenderer(start, cell_px=c, spp=spp, blur_cells=0.0).render(), BLUR_CELLS * c,
+                            white_level(image))
+    cells, _ = register_cells(prepared.regularized.image, cells, model, c)
+    canvas, first, lattice = cells_canvas(image, shifted(cells, prepared.regularized.box), c, model)
+    measured = thread_colours(canvas, pattern, c, first=first)
     orders = {f: o for f in ("warp", "weft") if (o := colour_order(measured[f])) is not None}
     if not orders:
         return prepared, {}
-    factor = flattening_factor(image.shape[:2], lattice, pattern, orders)
+    factor = flattening_factor(image.shape[:2], lattice, pattern, orders, first=first)
     out = dataclasses.replace(prepared, rectification=dataclasses.replace(prepared.rectification,
                                                                            image=(image * factor).astype(np.float32)))
     return out, {f: o.to_json() for f, o in orders.items()}
 
 
-def flattening_factor(shape: tuple[int, int], lattice, pattern: np.ndarray, orders: dict) -> np.ndarray:
+def flattening_factor(shape: tuple[int, int], lattice, pattern: np.ndarray, orders: dict, *,
+                      first: tuple[int, int] = (0, 0)) -> np.ndarray:
     """(H, W, 3) per-pixel gains that give every thread of an ordered family its family's
     commonest palette entry's colour (:func:`flattened`), for an image of ``shape`` whose
-    lattice of cells (every whole repeat, thread 0 at its first cell) is ``lattice``.
+    lattice of cells is ``lattice`` (thread 0 of the orders at its first cell, which is cell
+    ``first`` of a repeat; the lattice extends beyond the image's border as far as it must).
 
     Model-free, per cell: the yarn on top fills the middle band of the cell along its own
     direction (a warp's columns, a weft's rows) and the crossing yarn the middle band across it,
@@ -202,7 +215,7 @@ def flattening_factor(shape: tuple[int, int], lattice, pattern: np.ndarray, orde
         gain[family] = ratio[order.sequence[index % order.repeat]].astype(np.float32)
     in_warp = np.abs(tx - col - 0.5) < YARN_BAND / 2  # (w,): within the middle band of a warp's column
     in_weft = np.abs(ty - row - 0.5) < YARN_BAND / 2  # (h,)
-    weft_on_top = np.asarray(pattern)[row[:, None] % n_e, col[None, :] % n_a] == 1  # (h, w)
+    weft_on_top = np.asarray(pattern)[(row[:, None] + first[0]) % n_e, (col[None, :] + first[1]) % n_a] == 1
     warp_here = np.where(weft_on_top, in_warp[None, :] & ~in_weft[:, None], in_warp[None, :])
     weft_here = np.where(weft_on_top, in_weft[:, None], in_weft[:, None] & ~in_warp[None, :])
     factor = np.ones((h, w, 3), np.float32)

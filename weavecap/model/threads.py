@@ -35,9 +35,11 @@ class ThreadTable:
     Attributes
     ----------
     reflection, subsurface : Color3f of width L, R^B and S^B of each thread of the repeat
-    repeat : L, as an opaque Int32 (a new colour order compiles nothing)
-    cumulative_reflection : Color3f of width L + 1, the running sums of ``reflection`` (for
-        :meth:`box_mean`)
+    repeat : L, as an opaque Float (a new colour order compiles nothing; thread indices are
+        wrapped in floating point, exact below 2²⁴: an integer division's masked-off lanes
+        can divide by zero in a Mitsuba virtual call, which the CPU traps)
+    cumulative_reflection, cumulative_subsurface : Color3f of width L + 1, the running sums of
+        ``reflection`` and ``subsurface`` (for :meth:`box_mean`)
     """
 
     reflection: object
@@ -46,20 +48,27 @@ class ThreadTable:
     cumulative_reflection: object
     cumulative_subsurface: object
 
+    def turns(self, index):
+        """How many whole colour repeats lie left of thread ``index`` (Float, an integer value):
+        ``floor(index / L)``."""
+        return dr.floor(index / self.repeat)
+
     def wrap(self, index):
-        """``index`` (Int32, any integer) into the colour repeat: ``index mod L`` in [0, L)."""
-        m = index % self.repeat
-        return mi.UInt32(dr.select(m < 0, m + self.repeat, m))
+        """``index`` (Float, an integer value, any sign) into the colour repeat: ``index mod L``
+        as a UInt32 in [0, L)."""
+        m = index - self.repeat * self.turns(index)
+        return mi.UInt32(dr.clip(m, 0.0, self.repeat - 1.0))
 
     def at(self, index):
-        """(R^B, S^B) of the threads at ``index`` (Int32 thread indices of the tiled fabric)."""
-        k = self.wrap(index)
+        """(R^B, S^B) of the threads at ``index`` (thread indices of the tiled fabric, Int32 or
+        an integer-valued Float)."""
+        k = self.wrap(mi.Float(index))
         return dr.gather(mi.Color3f, self.reflection, k), dr.gather(mi.Color3f, self.subsurface, k)
 
     def at_position(self, x):
         """(R^B, S^B) at ``x`` (Float), a position across the family in threads: thread
         ``floor(x)``."""
-        return self.at(mi.Int32(dr.floor(x)))
+        return self.at(dr.floor(x))
 
     def box_mean(self, x, half):
         """(R^B, S^B) averaged over the threads covering ``[x - half, x + half]`` (Float, in
@@ -75,14 +84,12 @@ class ThreadTable:
 
             def running(y):  # Σ of the colours of threads left of position y (y in threads)
                 whole = dr.floor(y)
-                k = mi.Int32(whole)
-                m = self.wrap(k)
-                turns = mi.Float((k - mi.Int32(m)) // self.repeat)
+                m = self.wrap(whole)
                 inside = dr.gather(mi.Color3f, cumulative, m)
-                return turns * total + inside + (y - whole) * dr.gather(mi.Color3f, per_thread, m)
+                return self.turns(whole) * total + inside + (y - whole) * dr.gather(mi.Color3f, per_thread, m)
 
             mean = (running(hi) - running(lo)) / width
-            point = dr.gather(mi.Color3f, per_thread, self.wrap(mi.Int32(dr.floor(x))))
+            point = dr.gather(mi.Color3f, per_thread, self.wrap(dr.floor(x)))
             out.append(dr.select(half > 1e-4, mean, point))
         return out[0], out[1]
 
@@ -98,7 +105,7 @@ def thread_table(per_thread_reflection: np.ndarray, per_thread_subsurface: np.nd
         return value
 
     zero = np.zeros((1, 3))
-    table = ThreadTable(reflection=colours(r), subsurface=colours(s), repeat=dr.opaque(mi.Int32, r.shape[0]),
+    table = ThreadTable(reflection=colours(r), subsurface=colours(s), repeat=dr.opaque(mi.Float, r.shape[0]),
                         cumulative_reflection=colours(np.concatenate([zero, np.cumsum(r, axis=0)])),
                         cumulative_subsurface=colours(np.concatenate([zero, np.cumsum(s, axis=0)])))
     return table
@@ -114,4 +121,21 @@ def thread_tables(fabric: Fabric) -> dict[str, ThreadTable]:
         order = fabric.threads.family(name)
         if order is not None:
             out[name] = thread_table(order.per_thread("body_reflection"), order.per_thread("body_subsurface"))
+    return out
+
+
+def surface_colours(tables: dict[str, ThreadTable], shape: tuple[int, int], s, t, half=None) -> dict:
+    """Per family with a colour order, (R^B, S^B) at fabric coordinates ``(s, t)`` (Float, in
+    weave repeats: ``s`` along +u across the warps, ``t`` along +v up across the wefts, weft 0
+    at the top of the repeat at t ∈ [0, 1]; :mod:`weavecap.render.surface`'s convention), of
+    the (n_e, n_a) repeat ``shape``: warp ``floor(s n_a)``, weft ``floor((1 - t) n_e)``, as the
+    forward model counts them. With ``half`` (Float, half a footprint's side in yarn pitches)
+    the colours are box means over the threads the footprint covers
+    (:meth:`ThreadTable.box_mean`)."""
+    n_e, n_a = shape
+    out = {}
+    for family, position in (("warp", s * n_a), ("weft", (1.0 - t) * n_e)):
+        table = tables.get(family)
+        if table is not None:
+            out[family] = table.at_position(position) if half is None else table.box_mean(position, half)
     return out
