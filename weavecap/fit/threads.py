@@ -34,6 +34,8 @@ MIN_SIGNAL = 1e-3
 YARN_BAND = 0.7
 #: the largest gain (and smallest, inverted) a pixel is flattened by
 MAX_FLATTENING = 4.0
+#: a palette entry a family may be flattened to is worn by at least this share of its threads
+REFERENCE_SHARE = 0.25
 
 
 def _orders_threads(orders: dict, entries: dict, first: tuple[int, int]) -> Threads:
@@ -130,7 +132,7 @@ def _summary(values: np.ndarray) -> dict:
     return {"median": round(float(np.median(v)), 2), "max": round(float(v.max()), 2)}
 
 
-def flattened(prepared, cells, start: Fabric, *, spp: int) -> tuple[object, dict]:
+def flattened(prepared, cells, pattern: np.ndarray) -> tuple[object, dict]:
     """The prepared photo with its thread colours divided out, for the joint fit, and the
     report's note.
 
@@ -138,23 +140,28 @@ def flattened(prepared, cells, start: Fabric, *, spp: int) -> tuple[object, dict
     yarn-dyed fabric that median mixes the colours of whichever threads each repeat holds, and
     the fit explains the mixture with its other parameters (the highlights, the transmission),
     which no thread colour solved afterwards can undo. So where the photo shows a colour order
-    (:func:`weavecap.estimate.thread_colours.colour_order`, read with the weave of ``start``,
-    the pre-estimate, on ``cells`` registered on a render of it and along the lattice's drift,
-    as the fit's first round reads its target), each cell of the rectified photo is scaled,
-    per channel, by its top thread's palette entry's colour over its family's commonest
-    entry's: the fit then sees one colour per family, that commonest one, and the other
+    (:func:`weavecap.estimate.thread_colours.colour_order`, read on ``cells`` with the weave
+    ``pattern``, both the pre-estimate's, and repeating at least twice across the photo), each
+    cell of the rectified photo is scaled,
+    per channel, by its top thread's palette entry's colour over the family's reference entry's
+    (:func:`flattening_references`): the fit then sees one colour per family, and the other
     entries are solved after it (:func:`capture_threads`) on the photo as shot.
 
     Parameters
     ----------
     prepared : :class:`weavecap.prepare.Prepared`; only its rectified image changes
     cells : the repeat's cells in the regularized box's pixels
-    start : the pre-estimated fabric (its pattern and looks place the cells)
-    spp : samples per pixel of the render the cells are registered on
+    pattern : (n_e, n_a) the weave, 1 = weft over warp
 
     Returns
     -------
     (prepared, note): ``prepared`` itself and ``{}`` where no family shows a colour order.
+
+    Only a colour order the photo repeats is trusted this early: the pre-estimate's weave is
+    often wrong on real photos, and read with a wrong weave a plain-dyed family's threads
+    differ by whatever yarns the misread cells hold — the DEV twill W103 (black warp, white
+    weft) read a 10-end warp order, was flattened along it and fitted as a custom 4×4 at
+    8.4 dB; seen once, such an order is as likely a misreading as a stripe.
     """
     import dataclasses
 
@@ -162,40 +169,39 @@ def flattened(prepared, cells, start: Fabric, *, spp: int) -> tuple[object, dict
     from .compare import view_cell_px
     from .target import cells_canvas, shifted
 
-    from ..estimate.forward import BLUR_CELLS, RepeatRenderer
-    from ..model.render import as_photographed, white_level
-    from .target import register_cells
-
     image = np.asarray(prepared.rectification.image, np.float32)
-    pattern = start.pattern
-    c, _ = view_cell_px(shifted(cells, prepared.regularized.box))
-    model = as_photographed(RepeatRenderer(start, cell_px=c, spp=spp, blur_cells=0.0).render(), BLUR_CELLS * c,
-                            white_level(image))
-    cells, _ = register_cells(prepared.regularized.image, cells, model, c)
-    canvas, first, lattice = cells_canvas(image, shifted(cells, prepared.regularized.box), c, model)
+    grid = shifted(cells, prepared.regularized.box)
+    c, _ = view_cell_px(grid)
+    # read on the cells as they are: registered on a render of the one-colour pre-estimate (and
+    # its drift followed), a photo whose repeats differ in colour pulls them along its stripes —
+    # on the synthetic check a whole cell off, the photo flattened along the wrong threads, and
+    # each thread's colour after the fit up to ΔE 26 off (5.5 read as they are)
+    canvas, first, lattice = cells_canvas(image, grid, c)
     measured = thread_colours(canvas, pattern, c, first=first)
-    orders = {f: o for f in ("warp", "weft") if (o := colour_order(measured[f])) is not None}
+    orders = {f: o for f in ("warp", "weft") if (o := colour_order(measured[f])) is not None and o.seen_twice}
     if not orders:
         return prepared, {}
-    factor = flattening_factor(image.shape[:2], lattice, pattern, orders, first=first)
+    references = flattening_references(orders, measured)
+    factor = flattening_factor(image.shape[:2], lattice, pattern, orders, references, first=first)
     out = dataclasses.replace(prepared, rectification=dataclasses.replace(prepared.rectification,
                                                                            image=(image * factor).astype(np.float32)))
-    return out, {f: o.to_json() for f, o in orders.items()}
+    return out, {f: {**o.to_json(), "flattened_to": references[f]} for f, o in orders.items()}
 
 
-def flattening_factor(shape: tuple[int, int], lattice, pattern: np.ndarray, orders: dict, *,
-                      first: tuple[int, int] = (0, 0)) -> np.ndarray:
-    """(H, W, 3) per-pixel gains that give every thread of an ordered family its family's
-    commonest palette entry's colour (:func:`flattened`), for an image of ``shape`` whose
-    lattice of cells is ``lattice`` (thread 0 of the orders at its first cell, which is cell
-    ``first`` of a repeat; the lattice extends beyond the image's border as far as it must).
+def flattening_factor(shape: tuple[int, int], lattice, pattern: np.ndarray, orders: dict,
+                      references: dict, *, first: tuple[int, int] = (0, 0)) -> np.ndarray:
+    """(H, W, 3) per-pixel gains that give every thread of an ordered family the colour of its
+    palette entry ``references[family]`` (:func:`flattening_references`), for an image of
+    ``shape`` whose lattice of cells is ``lattice`` (thread 0 of the orders at its first cell,
+    which is cell ``first`` of a repeat; the lattice extends beyond the image's border as far as
+    it must).
 
-    Model-free, per cell: the yarn on top fills the middle band of the cell along its own
-    direction (a warp's columns, a weft's rows) and the crossing yarn the middle band across it,
-    under it; those bands take their thread's gain, the cell's corners (gaps between the yarns:
-    the backdrop, which fixes the rig's gain) keep 1. Gains are held within
-    [1 / :data:`MAX_FLATTENING`, :data:`MAX_FLATTENING`]: a highlight on a dark thread is no
-    brighter for being scaled, so a stronger gain would make highlights the fit explains away."""
+    Model-free, per cell: the yarn on top fills the middle :data:`YARN_BAND` of the cell across
+    its own direction (a warp's columns, a weft's rows), which takes its thread's gain; the rest
+    (the gaps, which show the backdrop that fixes the rig's gain, and the crossing yarn's edges
+    beside them) keeps 1. Gains are held within [1 / :data:`MAX_FLATTENING`,
+    :data:`MAX_FLATTENING`]: a highlight on a dark thread is no brighter for being scaled, so a
+    stronger gain would make highlights the fit explains away."""
     from scipy.ndimage import gaussian_filter
 
     n_e, n_a = np.asarray(pattern).shape
@@ -210,15 +216,43 @@ def flattening_factor(shape: tuple[int, int], lattice, pattern: np.ndarray, orde
         if order is None:
             gain[family] = np.ones((index.size, 3), np.float32)
             continue
-        common = np.bincount(order.sequence, minlength=len(order.palette)).argmax()
-        ratio = np.clip(order.palette[common] / np.maximum(order.palette, 1e-4), 1 / MAX_FLATTENING, MAX_FLATTENING)
-        gain[family] = ratio[order.sequence[index % order.repeat]].astype(np.float32)
+        ratio = order.palette[references[family]] / np.maximum(order.palette, 1e-4)
+        gain[family] = np.clip(ratio, 1 / MAX_FLATTENING, MAX_FLATTENING)[order.sequence[index % order.repeat]]
     in_warp = np.abs(tx - col - 0.5) < YARN_BAND / 2  # (w,): within the middle band of a warp's column
     in_weft = np.abs(ty - row - 0.5) < YARN_BAND / 2  # (h,)
     weft_on_top = np.asarray(pattern)[(row[:, None] + first[0]) % n_e, (col[None, :] + first[1]) % n_a] == 1
-    warp_here = np.where(weft_on_top, in_warp[None, :] & ~in_weft[:, None], in_warp[None, :])
-    weft_here = np.where(weft_on_top, in_weft[:, None], in_weft[:, None] & ~in_warp[None, :])
     factor = np.ones((h, w, 3), np.float32)
-    factor = np.where(warp_here[..., None], gain["warp"][None, :, :], factor)
-    factor = np.where(weft_here[..., None], gain["weft"][:, None, :], factor)
+    factor = np.where((~weft_on_top & in_warp[None, :])[..., None], gain["warp"][None, :, :], factor)
+    factor = np.where((weft_on_top & in_weft[:, None])[..., None], gain["weft"][:, None, :], factor)
     return gaussian_filter(factor, (1.0, 1.0, 0), mode="nearest")
+
+
+def flattening_references(orders: dict, measured: dict) -> dict:
+    """The palette entry each ordered family is flattened to (:func:`flattened`): of the entries
+    worn by at least :data:`REFERENCE_SHARE` of its threads (the commonest at least), the pair
+    (or, with one family ordered, the entry) furthest in CIELAB from the other family — its
+    entry, or the median of its threads' ``measured`` colours. The fit tells a weave from its
+    dual by the families' colours as much as by their shapes: flattened to one colour (a check
+    of white, navy and red both ways, flattened to white and white) the synthetic check's fit
+    took its dual."""
+    from itertools import product
+
+    from ..estimate.colour import linear_to_lab
+
+    options = {}
+    for family in ("warp", "weft"):
+        order = orders.get(family)
+        if order is None:
+            colours = np.asarray(measured[family], np.float64)
+            options[family] = [(None, np.nanmedian(colours, axis=0))]
+            continue
+        share = np.bincount(order.sequence, minlength=len(order.palette)) / order.repeat
+        keep = [int(k) for k in np.flatnonzero(share >= min(REFERENCE_SHARE, share.max()))]
+        options[family] = [(k, order.palette[k]) for k in keep]
+
+    def distance(pair) -> float:
+        (_, a), (_, b) = pair
+        return float(np.linalg.norm(linear_to_lab(np.clip(a, 0, 1)) - linear_to_lab(np.clip(b, 0, 1))))
+
+    best = max(product(options["warp"], options["weft"]), key=distance)
+    return {family: entry for family, (entry, _) in zip(("warp", "weft"), best) if family in orders}
