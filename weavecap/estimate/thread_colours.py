@@ -58,24 +58,6 @@ def thread_colours(canvas: np.ndarray, pattern: np.ndarray, c: int, *, first: tu
     -------
     {"warp": (X, 3), "weft": (Y, 3)} float64; NaN rows for a thread never on top.
     """
-    return {family: reading[0] for family, reading in _readings(canvas, pattern, c, first, centre_share).items()}
-
-
-def thread_spread(canvas: np.ndarray, pattern: np.ndarray, c: int, *, first: tuple[int, int] = (0, 0),
-                  centre_share: float = CENTRE_SHARE) -> dict[str, np.ndarray]:
-    """How much each thread's colour varies along it: the median, over the cells where it lies
-    on top, of the CIELAB distance (ΔE 1976) of the cell's colour from the thread's
-    (:func:`thread_colours`'s arguments). {"warp": (X,), "weft": (Y,)}; NaN for a thread never
-    on top. One yarn colour varies along a thread by the photo's noise, its light and its hair;
-    a misread weave (cells of the other family counted as this one's) by a yarn colour."""
-    return {family: reading[1] for family, reading in _readings(canvas, pattern, c, first, centre_share).items()}
-
-
-def _readings(canvas, pattern, c: int, first: tuple[int, int], centre_share: float) -> dict:
-    """Per family, (each thread's colour (N, 3), its spread (N,)): :func:`thread_colours`,
-    :func:`thread_spread`."""
-    from .colour import linear_to_lab
-
     p = np.asarray(pattern)
     n_e, n_a = p.shape
     a = np.asarray(canvas, np.float64)
@@ -85,16 +67,11 @@ def _readings(canvas, pattern, c: int, first: tuple[int, int], centre_share: flo
     blocks = a[: rows * c, : cols * c].reshape(rows, c, cols, c, 3)[:, lo:hi, :, lo:hi]
     cell = np.median(blocks.transpose(0, 2, 1, 3, 4).reshape(rows, cols, -1, 3), axis=2)  # (rows, cols, 3)
     weft_on_top = p[(np.arange(rows)[:, None] + first[0]) % n_e, (np.arange(cols)[None, :] + first[1]) % n_a] == 1
-    lab = linear_to_lab(np.clip(cell, 0.0, 1.0))
     out = {}
     for family, shown, axis in (("warp", ~weft_on_top, 0), ("weft", weft_on_top, 1)):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)  # a thread never on top: NaN
-            colour = np.nanmedian(np.where(shown[..., None], cell, np.nan), axis=axis)
-            centre = linear_to_lab(np.clip(colour, 0.0, 1.0))
-            distance = np.linalg.norm(lab - np.expand_dims(centre, axis), axis=-1)
-            spread = np.nanmedian(np.where(shown, distance, np.nan), axis=axis)
-        out[family] = (colour, spread)
+            out[family] = np.nanmedian(np.where(shown[..., None], cell, np.nan), axis=axis)
     return out
 
 

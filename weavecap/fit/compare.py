@@ -4,7 +4,7 @@ The fit works on the photo's median repeat (:mod:`weavecap.fit.target`); a perso
 capture against what they shot: several repeats, each thread in its colour, the photo's own
 irregularities. :func:`photo_view` takes the rectified photo over every whole cell of the
 fitted weave's registered lattice (at about its own pixels: a cell of ``c`` ≈ the yarn
-pitch, the lattice's drift followed as the median repeat's is), :func:`render_view` renders
+pitch, the lattice's drift followed as the median repeat's is), :func:`view_scene` and :func:`shown` render
 the captured fabric over the same cells as photographed (the camera's white level and blur,
 the fit's light rig and gain), so the two are registered pixel for pixel; the pixel figures
 (:func:`weavecap.fit.fidelity.pixel_fidelity`), the thread colours
@@ -116,10 +116,6 @@ def shown(fs, view: PhotoView, blur_px: float, image: np.ndarray | None = None) 
     full = as_photographed(render_numpy(fs) if image is None else image, blur_px, view.white)
     return full[v0 * c:(v0 + rows) * c, u0 * c:(u0 + cols) * c]
 
-
-def render_view(fabric: Fabric, rig, view: PhotoView, *, blur_px: float, spp: int) -> np.ndarray:
-    """``fabric`` under ``rig`` over the view's cells, as photographed (:func:`shown`)."""
-    return shown(view_scene(fabric, rig, view, spp=spp), view, blur_px)
 
 
 def _labelled(image: np.ndarray, text: str) -> np.ndarray:
