@@ -254,7 +254,7 @@ def capture_under_rig(photo_path: str | Path, options: CaptureOptions, *,
         start = start.replace({"pattern": options.pattern})
     timings["pre_estimate"] = time.perf_counter() - t
     coloured = prepared  # as shot (at the photo's exposure): the thread colours are solved on it
-    prepared, report["pre_estimation"]["thread_colours"] = flattened(prepared, cells, start.pattern)
+    prepared, report["pre_estimation"]["thread_colours"] = flattened(prepared, cells, start, spp=config.spp)
 
     if options.light == "auto":
         light, losses = choose_rig(prepared, cells, start, c=c, spp=config.spp)

@@ -137,16 +137,29 @@ def colour_repeat(labels: np.ndarray) -> tuple[int, bool]:
     return n, False
 
 
-def colour_order(colours: np.ndarray, *, split_delta_e: float = SPLIT_DELTA_E) -> ColourOrder | None:
+def colour_order(colours: np.ndarray, *, reference: np.ndarray | None = None,
+                 split_delta_e: float = SPLIT_DELTA_E) -> ColourOrder | None:
     """The colour order of one family from its threads' colours (N, 3) linear RGB (NaN rows:
-    threads never on top), or None when they are one yarn colour (a plain-dyed family)."""
+    threads never on top), or None when they are one yarn colour (a plain-dyed family).
+
+    ``reference`` (N, 3): the same threads read the same way on a render of the fabric in one
+    colour per family. Threads are then told apart by how far their colour is from the
+    render's (CIELAB differences), not by their colour: what a thread's cell centres show
+    depends on the weave as well as on its yarn — a thin warp's centres show the weft beside
+    it, a long float is lit otherwise than a crossing — and a plain-dyed custom 2×3 of the fit
+    bench read as a 3-end warp order and a 2-pick weft order (ΔE up to 42 between threads of
+    one colour) without it."""
     from .colour import linear_to_lab
 
     colours = np.asarray(colours, np.float64)
     seen = np.all(np.isfinite(colours), axis=1)
+    if reference is not None:
+        seen &= np.all(np.isfinite(reference), axis=1)
     if seen.sum() < MIN_THREADS:
         return None
     lab = linear_to_lab(np.clip(colours[seen], 0.0, 1.0))
+    if reference is not None:
+        lab = lab - linear_to_lab(np.clip(np.asarray(reference, np.float64)[seen], 0.0, 1.0))
     found = cluster_colours(lab, split_delta_e=split_delta_e)
     if found.max() == 0:
         return None

@@ -90,10 +90,12 @@ def capture_threads(view: PhotoView, fabric: Fabric, rig, *, blur_px: float, spp
 
     pattern, c = fabric.pattern, view.c
     photo = thread_colours(view.canvas, pattern, c, first=view.first)
-    orders = {family: o for family in ("warp", "weft") if (o := colour_order(photo[family])) is not None}
+    fs = view_scene(fabric, rig, view, spp=spp)  # one geometry; each render re-shades it
+    before = thread_colours(shown(fs, view, blur_px), pattern, c, first=view.first)  # the family colours
+    orders = {family: o for family in ("warp", "weft")
+              if (o := colour_order(photo[family], reference=before[family])) is not None}
     if not orders:
         return fabric, {"colour_orders": {}}
-    fs = view_scene(fabric, rig, view, spp=spp)  # one geometry; each render re-shades it
 
     def measure(entries: dict) -> dict:
         fs.set_threads(_orders_threads(orders, entries, view.first))
@@ -104,7 +106,6 @@ def capture_threads(view: PhotoView, fabric: Fabric, rig, *, blur_px: float, spp
     entries = {f: np.repeat(np.maximum(family_colour[f], START_FLOOR)[None], len(orders[f].palette), axis=0)
                for f in orders}
     dark = measure({f: np.zeros_like(e) for f, e in entries.items()})
-    before = measure({f: np.repeat(family_colour[f][None], len(o.palette), axis=0) for f, o in orders.items()})
     for _ in range(rounds):
         measured = measure(entries)
         for f, order in orders.items():
@@ -132,7 +133,7 @@ def _summary(values: np.ndarray) -> dict:
     return {"median": round(float(np.median(v)), 2), "max": round(float(v.max()), 2)}
 
 
-def flattened(prepared, cells, pattern: np.ndarray) -> tuple[object, dict]:
+def flattened(prepared, cells, start: Fabric, *, spp: int) -> tuple[object, dict]:
     """The prepared photo with its thread colours divided out, for the joint fit, and the
     report's note.
 
@@ -141,8 +142,8 @@ def flattened(prepared, cells, pattern: np.ndarray) -> tuple[object, dict]:
     the fit explains the mixture with its other parameters (the highlights, the transmission),
     which no thread colour solved afterwards can undo. So where the photo shows a colour order
     (:func:`weavecap.estimate.thread_colours.colour_order`, read on ``cells`` with the weave
-    ``pattern``, both the pre-estimate's, and repeating at least twice across the photo), each
-    cell of the rectified photo is scaled,
+    of ``start``, the pre-estimate, against a render of it, and repeating at least twice across
+    the photo), each cell of the rectified photo is scaled,
     per channel, by its top thread's palette entry's colour over the family's reference entry's
     (:func:`flattening_references`): the fit then sees one colour per family, and the other
     entries are solved after it (:func:`capture_threads`) on the photo as shot.
@@ -151,17 +152,21 @@ def flattened(prepared, cells, pattern: np.ndarray) -> tuple[object, dict]:
     ----------
     prepared : :class:`weavecap.prepare.Prepared`; only its rectified image changes
     cells : the repeat's cells in the regularized box's pixels
-    pattern : (n_e, n_a) the weave, 1 = weft over warp
+    start : the pre-estimated fabric (its weave; its render is the one-colour reference)
+    spp : samples per pixel of that render
 
     Returns
     -------
     (prepared, note): ``prepared`` itself and ``{}`` where no family shows a colour order.
 
-    Only a colour order the photo repeats is trusted this early: the pre-estimate's weave is
-    often wrong on real photos, and read with a wrong weave a plain-dyed family's threads
-    differ by whatever yarns the misread cells hold — the DEV twill W103 (black warp, white
-    weft) read a 10-end warp order, was flattened along it and fitted as a custom 4×4 at
-    8.4 dB; seen once, such an order is as likely a misreading as a stripe.
+    Only a colour order the photo repeats, over a repeat that is no multiple of the weave's, is
+    trusted this early: the pre-estimate's weave is often wrong, and read with a wrong weave a
+    plain-dyed family's threads differ by whatever yarns the misread cells hold — the DEV
+    twill W103 (black warp, white weft) read a 10-end warp order seen once, was flattened along
+    it and fitted as a custom 4×4 at 8.4 dB; the fit bench's plain-dyed custom 2×3, its weave
+    read a cell off, a 3-end warp and a 2-pick weft order (the weave's own repeats), and its
+    capture came out striped (pixel ΔE p90 32). A misreading repeats with the weave; a colour
+    order that does too is left to the solve after the fit.
     """
     import dataclasses
 
@@ -169,7 +174,11 @@ def flattened(prepared, cells, pattern: np.ndarray) -> tuple[object, dict]:
     from .compare import view_cell_px
     from .target import cells_canvas, shifted
 
+    from ..estimate.forward import BLUR_CELLS, RepeatRenderer
+    from ..model.render import as_photographed, white_level
+
     image = np.asarray(prepared.rectification.image, np.float32)
+    pattern = start.pattern
     grid = shifted(cells, prepared.regularized.box)
     c, _ = view_cell_px(grid)
     # read on the cells as they are: registered on a render of the one-colour pre-estimate (and
@@ -178,7 +187,16 @@ def flattened(prepared, cells, pattern: np.ndarray) -> tuple[object, dict]:
     # each thread's colour after the fit up to ΔE 26 off (5.5 read as they are)
     canvas, first, lattice = cells_canvas(image, grid, c)
     measured = thread_colours(canvas, pattern, c, first=first)
-    orders = {f: o for f in ("warp", "weft") if (o := colour_order(measured[f])) is not None and o.seen_twice}
+    n_e, n_a = pattern.shape
+    rows, cols = canvas.shape[0] // c, canvas.shape[1] // c
+    model = as_photographed(RepeatRenderer(start, cell_px=c, spp=spp, blur_cells=0.0).render(), BLUR_CELLS * c,
+                            white_level(image))
+    tiled = np.tile(model, (-(-(rows + first[0]) // n_e), -(-(cols + first[1]) // n_a), 1))
+    reference = thread_colours(tiled[first[0] * c:(first[0] + rows) * c, first[1] * c:(first[1] + cols) * c],
+                               pattern, c, first=first)
+    orders = {f: o for f, n in (("warp", n_a), ("weft", n_e))
+              if (o := colour_order(measured[f], reference=reference[f])) is not None and o.seen_twice
+              and o.repeat % n != 0}
     if not orders:
         return prepared, {}
     references = flattening_references(orders, measured)
