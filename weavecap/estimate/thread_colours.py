@@ -32,8 +32,9 @@ from dataclasses import dataclass
 import numpy as np
 
 #: threads whose colours (CIELAB, average linkage) are further apart than this are different
-#: yarn colours: above the spread of one yarn colour's threads measured on the plain-dyed DEV
-#: photos (docs/capture.md), below the nearest two yarn colours of the yarn-dyed ones
+#: yarn colours; the one value tried: the bar for a faithful pixel colour (p90 ≤ 12), and
+#: about twice how far a thread's cells lie from its colour (median ΔE76 3.8–6.7 on the DEV
+#: plain weaves W027–W031, read on their pre-estimate's cells)
 SPLIT_DELTA_E = 12.0
 #: the middle share of each cell side whose pixels count (as the fidelity figures' family masks)
 CENTRE_SHARE = 0.5
