@@ -3,7 +3,8 @@
 After the joint fit (§6) the fabric has one colour per yarn family, fitted on the photo's
 median repeat. A yarn-dyed fabric's threads differ: :mod:`weavecap.estimate.thread_colours`
 finds each family's colour order on the photo at its own scale (:mod:`weavecap.fit.compare`'s
-view, every whole repeat), and this stage solves each palette entry's body colours with
+view, every whole cell), read against the fitted fabric's render in its family colours, and
+this stage solves each palette entry's body colours with
 everything else of the fitted fabric held, as :func:`weavecap.fit.joint.match_family_colours`
 does for the family colours (§5.2), per entry: the render is linear in the body colours, so
 with one render of the view whose ordered families are black (``dark``) and one at the
