@@ -32,7 +32,7 @@ def _formats(ctx, param, value: str) -> tuple[str, ...]:
 @click.option("--texels-per-yarn", type=click.IntRange(4, 64), default=16, show_default=True,
               help="Map resolution across one yarn.")
 @click.option("--repeats", type=click.IntRange(1, 16), default=1, show_default=True,
-              help="Weave repeats per side of the map tile.")
+              help="Repeats per side of the map tile: of the weave, or of the fabric's whole repeat where it has thread colours (stripes, checks: the lcm of the weave's and the colour repeat).")
 @click.option("--bits", type=click.Choice(["8", "16"]), default="8", show_default=True,
               help="Bits per channel of the PNG maps (pbr, u3m).")
 @click.option("--maps", "map_format", type=click.Choice(["png", "exr"]), default="png", show_default=True,

@@ -53,8 +53,10 @@ def fit(photos, out, quality, light, budget_s, jobs, scheduler, start_from, patt
     For each PHOTO: rectify and find the yarn grid (§4), pre-estimate pattern, colours and
     parameters (§5), fit them jointly by annealing and gradients through the renderer (§6),
     and estimate the irregularity noise (§6.3). Writes params.json (the fabric; render it with
-    `weavecap synth`), report.json (what was found, how long each stage took), compare.png
-    (photo | fit | error), rectified.png, grid.png (check the yarn grid by eye) and loss.png.
+    `weavecap synth`; a yarn-dyed fabric's colour per thread included), report.json (what was
+    found, how long each stage took, how the fit looks against the photo), compare.png (the
+    photo over several repeats | the fit over the same area | the difference, the median
+    repeat beside them), rectified.png, grid.png (check the yarn grid by eye) and loss.png.
 
     A photo that is not a resolvable woven fabric gets a report.json saying why and no
     params.json. A batch goes on past bad photos, writes OUT/summary.jsonl one line per photo

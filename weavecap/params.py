@@ -95,6 +95,53 @@ class Shadowing:
 
 
 @dataclass(frozen=True)
+class PaletteEntry:
+    """One yarn colour of a colour order: body reflection R^B and subsurface colour S^B (§3.3)."""
+
+    body_reflection: RGB
+    body_subsurface: RGB
+
+
+@dataclass(frozen=True)
+class ThreadColours:
+    """The colour order of one yarn family over its colour repeat (yarn-dyed stripes, checks,
+    plaids; a WIF's ``COLOR TABLE`` with ``WARP COLORS`` / ``WEFT COLORS``).
+
+    ``sequence[k]`` is the palette entry of the k-th end (warp) or pick (weft) of the colour
+    repeat, counted like the pattern's columns (rows): thread ``j`` of the tiled fabric has
+    entry ``sequence[j mod len(sequence)]``. The colour repeat tiles on its own, so the fabric
+    repeats every lcm of the weave's and the colours' repeats.
+    """
+
+    palette: tuple[PaletteEntry, ...]
+    sequence: tuple[int, ...]
+
+    @property
+    def repeat(self) -> int:
+        """Threads in the colour repeat."""
+        return len(self.sequence)
+
+    def per_thread(self, key: str) -> np.ndarray:
+        """(repeat, 3) float64: ``key`` (``"body_reflection"`` or ``"body_subsurface"``) of
+        each thread of the colour repeat."""
+        table = np.array([getattr(entry, key) for entry in self.palette], dtype=np.float64)
+        return table[np.asarray(self.sequence, dtype=np.int64)]
+
+
+@dataclass(frozen=True)
+class Threads:
+    """Per-thread colours of a yarn-dyed fabric: a colour order for the warp, the weft or both;
+    a family without one has its own body colours on every thread."""
+
+    warp: ThreadColours | None = None
+    weft: ThreadColours | None = None
+
+    def family(self, name: str) -> ThreadColours | None:
+        """The colour order of ``"warp"`` or ``"weft"``, or None."""
+        return getattr(self, name)
+
+
+@dataclass(frozen=True)
 class Fabric:
     """One woven fabric (Table 1). ``pattern`` is (wefts, warps) uint8; 1 = weft over warp."""
 
@@ -109,11 +156,30 @@ class Fabric:
     noise: dict | None = None
     scale: dict | None = None
     extra: dict = field(default_factory=dict)
+    threads: Threads | None = None
 
     @property
     def shape(self) -> tuple[int, int]:
         """(wefts, warps) of the minimum repeat."""
         return (int(self.pattern.shape[0]), int(self.pattern.shape[1]))
+
+    @property
+    def full_repeat(self) -> tuple[int, int]:
+        """(wefts, warps) over which the fabric repeats with its thread colours: each side the
+        lcm of the weave's repeat and that family's colour repeat (the weave's without them)."""
+        out = []
+        for n, name in zip(self.shape, ("weft", "warp")):
+            order = self.threads.family(name) if self.threads is not None else None
+            out.append(n if order is None else math.lcm(n, order.repeat))
+        return (out[0], out[1])
+
+    def with_threads(self, threads: Threads | None) -> "Fabric":
+        """A copy with these thread colours (None: the family colours on every thread), validated."""
+        doc = to_dict(self)
+        doc.pop("threads", None)
+        if threads is not None and (threads.warp is not None or threads.weft is not None):
+            doc["threads"] = _threads_doc(threads)
+        return from_dict(doc)
 
     def get(self, key: str) -> Any:
         """Value of a dotted key, e.g. ``get("specular.ior")``."""
@@ -273,6 +339,7 @@ def validate(doc: Any, *, path: str | None = None) -> None:
     errors = sorted(validator.iter_errors(doc), key=lambda e: (len(e.absolute_path), list(map(str, e.absolute_path))))
     if not errors:
         _check_pattern_shape(doc, path)
+        _check_thread_sequences(doc, path)
         check_values(doc, path=path)
         return
     err = errors[0]
@@ -300,6 +367,16 @@ def _check_pattern_shape(doc: dict, path: str | None) -> None:
         if len(row) != width:
             raise ParamsError(f"row {i} has {len(row)} cells but row 0 has {width}; the pattern must be rectangular",
                               field=f"pattern[{i}]", path=path)
+
+
+def _check_thread_sequences(doc: dict, path: str | None) -> None:
+    """Every entry of a colour order's ``sequence`` names an entry of its ``palette``."""
+    for name, order in (doc.get("threads") or {}).items():
+        size = len(order["palette"])
+        for k, entry in enumerate(order["sequence"]):
+            if entry >= size:
+                raise ParamsError(f"palette entry {entry} does not exist; the palette has {size} "
+                                  f"(entries 0 to {size - 1})", field=f"threads.{name}.sequence[{k}]", path=path)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -456,7 +533,29 @@ def _build(doc: dict, *, base: Path | None = None, path: str | None = None) -> F
         noise=doc.get("noise"),
         scale=doc.get("scale"),
         extra=dict(doc.get("extra", {})),
+        threads=_threads(doc.get("threads")),
     )
+
+
+def _threads(doc: dict | None) -> Threads | None:
+    """The :class:`Threads` of a valid ``threads`` document (None when absent or empty)."""
+    if not doc:
+        return None
+
+    def order(d: dict | None) -> ThreadColours | None:
+        if d is None:
+            return None
+        return ThreadColours(palette=tuple(PaletteEntry(_rgb(e["body_reflection"]), _rgb(e["body_subsurface"]))
+                                           for e in d["palette"]),
+                             sequence=tuple(int(k) for k in d["sequence"]))
+
+    return Threads(warp=order(doc.get("warp")), weft=order(doc.get("weft")))
+
+
+def _threads_doc(threads: Threads) -> dict:
+    """The ``threads`` document of a :class:`Threads` (a family without a colour order left out)."""
+    return json.loads(json.dumps({name: dataclasses.asdict(order) for name in ("warp", "weft")
+                                  if (order := threads.family(name)) is not None}))
 
 
 def to_dict(fabric: Fabric) -> dict:
@@ -467,6 +566,9 @@ def to_dict(fabric: Fabric) -> dict:
             continue
         value = getattr(fabric, f.name)
         if value is None:
+            continue
+        if f.name == "threads":
+            doc[f.name] = _threads_doc(value)
             continue
         doc[f.name] = dataclasses.asdict(value) if dataclasses.is_dataclass(value) else value
     # tuples → lists so that the document equals its JSON round trip

@@ -23,7 +23,6 @@ import numpy as np
 from . import params as wparams
 from . import report as reports
 from . import stages
-from .fit.fidelity import captioned
 from .stages import CaptureOptions
 
 OUTPUT_FILES = ("params.json", "report.json", "compare.png", "rectified.png", "grid.png", "loss.png")
@@ -37,7 +36,6 @@ class Capture:
     fabric: wparams.Fabric | None = None
     images: dict = field(default_factory=dict)  # output name → (H, W, 3) linear RGB
     history: list = field(default_factory=list)
-    captions: dict = field(default_factory=dict)  # output name → a line of text under the picture
 
     @property
     def status(self) -> str:
@@ -74,7 +72,8 @@ class FitJob:
         return {"weave": record.get("weave"), "psnr_db": fit.get("psnr_db"),
                 "pattern_confidence": fit.get("pattern_confidence"), "yarns": record["grid"]["yarns"],
                 "light": fit.get("light", {}).get("rig"), "sharpness": fidelity.get("sharpness"),
-                "delta_e": fidelity.get("delta_e"), "clipped": fidelity.get("clipped")}
+                "delta_e": fidelity.get("delta_e"), "clipped": fidelity.get("clipped"),
+                "photo_scale": fidelity.get("photo_scale")}
 
 
 class _Clock:
@@ -138,15 +137,17 @@ def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), 
     report = reports.finished(photo_path, options, loaded=loaded, prepared=prepared, searched=searched,
                               timings=timings)
     return Capture(report=report, fabric=kept.finished.fabric, images=_images(prepared, kept),
-                   history=kept.fitted.result.history, captions={"compare.png": kept.finished.fidelity.caption()})
+                   history=kept.fitted.result.history)
 
 
 def _images(prepared, kept: stages.Captured) -> dict:
-    """The pictures of a capture (linear RGB): the photo's repeat, the fit's render and their
-    difference (×4) side by side, as shot; the rectified photo; its yarn grid."""
-    target, rendered = kept.fitted.target, kept.finished.rendered
-    error = np.abs(rendered - target) * 4.0
-    return {"compare.png": (kept.start.exposure or 1.0) * np.concatenate([target, rendered, error], axis=1),
+    """The pictures of a capture (linear RGB): compare.png (the photo and the fit at the photo's
+    scale, and their repeats, :meth:`weavecap.fit.compare.PhotoScale.compare`), as shot; the
+    rectified photo; its yarn grid."""
+    done = kept.finished
+    compare = done.at_scale.compare(kept.fitted.target, done.rendered, [done.fidelity.caption()],
+                                    exposure=kept.start.exposure or 1.0)
+    return {"compare.png": compare,
             "rectified.png": prepared.rectification.image, "grid.png": prepared.grid_overlay()}
 
 
@@ -191,8 +192,6 @@ def write_capture(cap: Capture, out_dir: Path) -> None:
         for name, image in cap.images.items():
             if name == "compare.png":
                 image = _enlarged(image)
-            if name in cap.captions:
-                image = captioned(image, cap.captions[name])
             files[name] = lambda path, image=image: save_png(path, image)
         files["loss.png"] = lambda path: save_png(path, loss_plot(cap.history))
     write_result_set(out_dir, files, record=("report.json", json.dumps(cap.report, indent=1) + "\n"),

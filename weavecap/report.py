@@ -86,7 +86,8 @@ def finished(photo_path: str | Path, options: CaptureOptions, *, loaded: Loaded,
         "psnr_db": round(psnr(done.rendered, fitted.target), 3), "iterations": result.iterations,
         "pattern_confidence": round(done.confidence, 4), "mse": result.loss, "stopped": result.stopped,
         "seconds": round(result.seconds, 3), "cell_px": start.cell_px, "spp": config.spp, "moves": result.moves,
-        "pattern_fixed": options.pattern is not None, "fidelity": done.fidelity.to_json(),
+        "pattern_fixed": options.pattern is not None,
+        "fidelity": {**done.fidelity.to_json(), "photo_scale": done.at_scale.figures.to_json()},
         "parameters": {key: {"standard_error": round(se, 4) if np.isfinite(se) else None,
                              "determined": bool(se <= DETERMINED_SE)} for key, se in done.errors.items()},
         "light": modelled.light_json(fitted.rig, result.moves, exposure=start.exposure),
@@ -98,4 +99,5 @@ def finished(photo_path: str | Path, options: CaptureOptions, *, loaded: Loaded,
                                            light_reason=searched.note or start.light_reason, spp=config.spp,
                                            blur_px=fitted.blur_px, noise=done.noise, pitch_px=prepared.grid.pitch_px,
                                            plies_flat=config.plies_flat)
+    report["threads"] = done.at_scale.threads
     return report

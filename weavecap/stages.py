@@ -22,6 +22,7 @@ from .params import Fabric
 
 if TYPE_CHECKING:  # types only: the stages import their modules when they run
     from .estimate.cells import CellGrid
+    from .fit.compare import PhotoScale
     from .fit.fidelity import Fidelity
     from .fit.modelled import Plan
     from .fit.rigs import Weighed
@@ -149,7 +150,10 @@ class Start:
     Attributes
     ----------
     prepared : the photo as fitted: as shot, or under ``--exposure photo`` divided by its own
-        exposure (:func:`weavecap.estimate.preestimate.photo_exposure`)
+        exposure (:func:`weavecap.estimate.preestimate.photo_exposure`), and where it shows a
+        colour order, each thread's colour divided out (:func:`weavecap.fit.threads.flattened`)
+    coloured : the photo at that exposure with its thread colours (the threads' palette is
+        solved on it after the fit, :func:`weavecap.fit.compare.at_photo_scale`)
     exposure : that exposure, or None (the photo as shot)
     fabric : the start fabric (the pre-estimate, or the given start; a given pattern set)
     notes : report.json's ``pre_estimation``
@@ -159,6 +163,7 @@ class Start:
     """
 
     prepared: Prepared
+    coloured: Prepared
     exposure: float | None
     fabric: Fabric
     notes: dict
@@ -175,6 +180,7 @@ def pre_estimate(prepared: Prepared, grid: CellGrid, options: CaptureOptions, li
     from .estimate.preestimate import photo_exposure
     from .estimate.preestimate import pre_estimate as estimate
     from .fit.rigs import choose_rig
+    from .fit.threads import flattened
 
     config = options.config
     c = cell_px_for(config, grid.shape)
@@ -190,11 +196,13 @@ def pre_estimate(prepared: Prepared, grid: CellGrid, options: CaptureOptions, li
         fabric, notes = pre.fabric, pre.to_json()
     if options.pattern is not None:
         fabric = fabric.replace({"pattern": options.pattern})
+    coloured = prepared
+    prepared, notes["thread_colours"] = flattened(prepared, grid, fabric, spp=config.spp)
     if light == "auto":
         rig, losses = choose_rig(prepared, grid, fabric, c=c, spp=config.spp)
         reason = "the rig whose render, colours and gain solved, explains the photo best: " + ", ".join(
             f"{k} {v:.4g}" for k, v in losses.items())
-    return Start(prepared=prepared, exposure=exposure, fabric=fabric, notes=notes, light=rig, light_reason=reason,
+    return Start(prepared=prepared, coloured=coloured, exposure=exposure, fabric=fabric, notes=notes, light=rig, light_reason=reason,
                  cell_px=c)
 
 
@@ -229,12 +237,15 @@ class Finished:
 
     Attributes
     ----------
-    fabric : the fit's fabric with its noise model (§6.3)
+    fabric : the fit's fabric with its noise model (§6.3) and its threads' colours solved at
+        the photo's scale
     rendered : (n_e*c, n_a*c, 3) its render as photographed (the fit's blur, clipped)
     confidence : the share of cells whose fitted state explains the photo better than its opposite
     noise : the noise model (:func:`weavecap.noise.fit_noise`)
     errors : key → standard error (a fraction of its range; inf: unseen)
     fidelity : the render against the photo (:func:`weavecap.fit.fidelity.fidelity`)
+    at_scale : the fit against the photo at the photo's own scale, every whole cell in view
+        (:class:`weavecap.fit.compare.PhotoScale`: the threads' colours, pixel figures, compare.png)
     """
 
     fabric: Fabric
@@ -243,13 +254,16 @@ class Finished:
     noise: dict
     errors: dict
     fidelity: Fidelity
+    at_scale: PhotoScale
 
 
 def finish(start: Start, planned: Plan, fitted: RegisteredFit, options: CaptureOptions) -> Finished:
     """Render the fit once as photographed, and from that render: how sure the pattern is, the
-    noise model on the residual (§6.3), each value's standard error
+    noise model on the residual (§6.3), the threads' colours and the figures at the photo's
+    scale (:func:`weavecap.fit.compare.at_photo_scale`), each value's standard error
     (:func:`weavecap.fit.uncertainty.standard_errors`) and the fidelity figures."""
     from .estimate.cells import cell_canvas
+    from .fit.compare import at_photo_scale
     from .fit.confidence import pattern_confidence
     from .fit.fidelity import fidelity
     from .fit.uncertainty import standard_errors
@@ -264,12 +278,13 @@ def finish(start: Start, planned: Plan, fitted: RegisteredFit, options: CaptureO
     confidence = pattern_confidence(fs, rendered, target, spp, blur_px)
     photo_canvas = cell_canvas(start.prepared.rectification.image, fitted.cells, c)
     noise = fit_noise(photo_canvas - rendered, pitch_px=float(c), seed=options.seed)
+    fabric = dataclasses.replace(result.fabric, noise=noise) if noise["gaussians"] else result.fabric
+    at_scale = at_photo_scale(start.coloured.rectification.image, fitted, fabric, c=c, spp=spp)
     errors = standard_errors(result.fabric, target, blur_px=blur_px, light=fitted.rig, spp=spp, fixed=planned.fixed,
                              scene=fs, rendered=rendered)
-    return Finished(fabric=dataclasses.replace(result.fabric, noise=noise) if noise["gaussians"] else result.fabric,
-                    rendered=rendered, confidence=confidence, noise=noise, errors=errors,
+    return Finished(fabric=at_scale.fabric, rendered=rendered, confidence=confidence, noise=noise, errors=errors,
                     fidelity=fidelity(target, rendered, result.fabric.pattern,
-                                      shot=(start.exposure or 1.0) * photo_canvas))
+                                      shot=(start.exposure or 1.0) * photo_canvas), at_scale=at_scale)
 
 
 @dataclass(frozen=True)

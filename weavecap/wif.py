@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import configparser
 import io
+import math
 import os
 import re
 import warnings
@@ -48,6 +49,9 @@ MAX_REPEAT = 64
 #: Ends or picks a WIF file may draft before it is refused unread (a drawdown this size is
 #: 64 MiB of cells; real drafts are a few hundred to a few thousand threads).
 MAX_THREADS = 8192
+
+#: The longest colour repeat a weavecap fabric holds (``params.schema.json``'s ``threads``).
+MAX_COLOUR_REPEAT = 4096
 
 #: Files larger than this are not WIF drafts (the largest real drafts are a few hundred KiB).
 MAX_BYTES = 16 * 2**20
@@ -103,12 +107,17 @@ class Draft:
         ``[TEXT] Title``, or the file name.
     lifting : str
         The sections the drawdown came from: ``"[LIFTPLAN]"`` or ``"[TIEUP] × [TREADLING]"``.
+    threads : weavecap.params.Threads or None
+        The colour orders of ``[WARP COLORS]`` / ``[WEFT COLORS]`` over ``[COLOR TABLE]``
+        (:func:`colour_orders`): a family drafted in more than one colour has one; None when
+        neither is.
     """
 
     drawdown: np.ndarray
     pattern: np.ndarray
     title: str
     lifting: str
+    threads: object = None
 
 
 # ---------------------------------------------------------------------------------------------
@@ -456,7 +465,75 @@ def read_wif(path: str | os.PathLike) -> Draft:
                              "on; keep one of them (or make them agree)")
     pattern = repeat_of(drawdown, path=name, sections=f"[THREADING] and {lifting}")
     return Draft(drawdown=drawdown, pattern=pattern, title=data.name if data.name != "?" else Path(name).name,
-                 lifting=lifting)
+                 lifting=lifting, threads=colour_orders(data, ends, picks, path=name))
+
+
+# ---------------------------------------------------------------------------------------------
+# thread colours ([COLOR TABLE], [WARP COLORS], [WEFT COLORS])
+
+
+def colour_period(indices: list[int]) -> int:
+    """The colour repeat of a family's per-thread colour indices as drafted: the smallest
+    period that tiles them exactly (the draft is whole colour repeats), else the smallest
+    drafted at least twice (a draft cut mid-repeat), else their number."""
+    seq = np.asarray(indices)
+    n = seq.size
+    for k in range(1, n + 1):
+        if n % k == 0 and np.array_equal(seq, np.roll(seq, k)):
+            return k if k < n else _period(seq[None, :], axis=1)
+    return n
+
+
+def _linear_colour(rgb, colour_range) -> tuple[float, float, float]:
+    """A colour table entry (integers in ``colour_range``, sRGB-encoded) as linear RGB."""
+    from .photo import srgb_to_linear
+
+    lo, hi = colour_range if colour_range else (0, 255)
+    c = (np.asarray(rgb, dtype=np.float64) - lo) / max(hi - lo, 1)
+    return tuple(float(v) for v in srgb_to_linear(np.clip(c, 0.0, 1.0)))
+
+
+def colour_orders(data, ends: int, picks: int, *, path: str = ""):
+    """The thread colours of a parsed draft (:class:`dtx_to_wif.PatternData`), as
+    :class:`weavecap.params.Threads`, or None when each family is drafted in one colour.
+
+    Each end's colour is its ``[WARP COLORS]`` entry or the ``[WARP]`` ``Color`` (likewise the
+    picks); a family in more than one colour gets a colour order: its colour repeat
+    (:func:`colour_period`), a palette of the colour table's entries it uses, in the order of
+    their indices, each as body reflection and subsurface colour (a WIF colour is one colour),
+    and per thread the entry it wears.
+
+    Raises
+    ------
+    InputError
+        (exit 2) A thread's colour is not in ``[COLOR TABLE]``, or the colour repeat is longer
+        than a params file holds (4096 threads).
+    """
+    from .params import PaletteEntry, ThreadColours, Threads
+
+    orders = {}
+    for family, count, section in (("warp", ends, "warp_colors"), ("weft", picks, "weft_colors")):
+        explicit = getattr(data, f"{family}_colors") or {}
+        default = getattr(data, family).color
+        indices = [explicit.get(k, default) for k in range(1, count + 1)]
+        if not indices or any(i is None for i in indices) or len(set(indices)) < 2:
+            continue
+        missing = sorted(set(indices) - set(data.color_table))
+        if missing:
+            raise _refuse(path, section, f"colour {missing[0]} is not an entry of [COLOR TABLE]; use one of its "
+                          "indices")
+        period = colour_period(indices)
+        if period > MAX_COLOUR_REPEAT:
+            raise _refuse(path, section, f"the colour order repeats over {period} threads; weavecap holds colour "
+                          f"repeats of at most {MAX_COLOUR_REPEAT} (give a draft of one colour repeat)")
+        used = sorted(set(indices[:period]))
+        rank = {index: k for k, index in enumerate(used)}
+        palette = []
+        for index in used:
+            rgb = _linear_colour(data.color_table[index], data.color_range)
+            palette.append(PaletteEntry(body_reflection=rgb, body_subsurface=rgb))
+        orders[family] = ThreadColours(palette=tuple(palette), sequence=tuple(rank[i] for i in indices[:period]))
+    return Threads(**orders) if orders else None
 
 
 # ---------------------------------------------------------------------------------------------
@@ -489,7 +566,8 @@ def body_colour(colour) -> tuple[float, float, float]:
 
 
 def draft_of(pattern: np.ndarray, *, warp_rgb=(1.0, 1.0, 1.0), weft_rgb=(0.0, 0.0, 0.0),
-             pitch_mm: float | None = None, title: str = "weavecap", treadle_limit: int = TREADLE_LIMIT):
+             pitch_mm: float | None = None, title: str = "weavecap", treadle_limit: int = TREADLE_LIMIT,
+             threads=None):
     """The draft of a pattern, as ``dtx-to-wif``'s :class:`~dtx_to_wif.PatternData`.
 
     Parameters
@@ -506,6 +584,11 @@ def draft_of(pattern: np.ndarray, *, warp_rgb=(1.0, 1.0, 1.0), weft_rgb=(0.0, 0.
     treadle_limit : int
         Also write threading + tie-up + treadling when the pattern needs at most this many
         shafts and treadles; the liftplan is always written.
+    threads : weavecap.params.Threads, optional
+        Colour orders: the draft then spans the lcm of the weave's and each colour repeat
+        (the pattern tiled), its palettes follow the warp and weft colours in ``[COLOR
+        TABLE]`` (each entry's body reflection), and ``[WARP COLORS]`` / ``[WEFT COLORS]``
+        give every thread's entry.
 
     Returns
     -------
@@ -520,6 +603,8 @@ def draft_of(pattern: np.ndarray, *, warp_rgb=(1.0, 1.0, 1.0), weft_rgb=(0.0, 0.
     from . import __version__
 
     p = np.asarray(pattern, dtype=np.uint8)
+    colour_table, colours, (picks, ends) = _thread_colours(threads, p.shape, warp_rgb=warp_rgb, weft_rgb=weft_rgb)
+    p = np.tile(p, (picks // p.shape[0], ends // p.shape[1]))
     rising = bool((p == 0).any())
     moves = (1 - p) if rising else p  # (wefts, warps): warp end moves (rises / sinks) on this pick
     columns, shaft_of_end = _first_seen(moves.T)  # (shafts, wefts), (warps,)
@@ -536,11 +621,35 @@ def draft_of(pattern: np.ndarray, *, warp_rgb=(1.0, 1.0, 1.0), weft_rgb=(0.0, 0.
     spacing = {} if pitch_mm is None else {"spacing": float(pitch_mm) / 10.0, "units": "centimeters"}
     return PatternData(
         name=title, threading=threading, tieup=tieup, treadling=treadling, liftplan=liftplan,
-        color_table={1: _srgb8(warp_rgb), 2: _srgb8(weft_rgb)}, color_range=(0, 255),
+        color_table=colour_table, color_range=(0, 255), warp_colors=colours["warp"], weft_colors=colours["weft"],
         warp=WarpWeftData(threads=p.shape[1], color=1, **spacing),
         weft=WarpWeftData(threads=p.shape[0], color=2, **spacing),
         is_rising_shed=rising, source_program="weavecap", source_version=__version__,
         num_shafts=len(columns), num_treadles=int(used.sum()) if tieup else len(columns))
+
+
+def _thread_colours(threads, shape: tuple[int, int], *, warp_rgb, weft_rgb) -> tuple[dict, dict, tuple[int, int]]:
+    """The colour table (1: the warp's colour, 2: the weft's, then each colour order's palette),
+    per family with a colour order each drafted thread's entry (``{}`` for a family without
+    one: its ``Color``), and the (picks, ends) to draft: per family the lcm of the weave's and
+    its colour repeat."""
+    table = {1: _srgb8(warp_rgb), 2: _srgb8(weft_rgb)}
+    colours, counts = {"warp": {}, "weft": {}}, {"warp": shape[1], "weft": shape[0]}
+    for family, n in (("warp", shape[1]), ("weft", shape[0])):
+        order = threads.family(family) if threads is not None else None
+        if order is None:
+            continue
+        first = len(table) + 1
+        for k, entry in enumerate(order.palette):
+            table[first + k] = _srgb8(entry.body_reflection)
+        count = math.lcm(n, order.repeat)
+        if count > MAX_THREADS:
+            raise InputError(f"threads.{family}.sequence: a colour repeat of {order.repeat} over a weave repeat of {n} "
+                             f"drafts {count} {'ends' if family == 'warp' else 'picks'}, more than a WIF draft here "
+                             f"holds ({MAX_THREADS}); export a shorter colour order")
+        colours[family] = {t + 1: first + order.sequence[t % order.repeat] for t in range(count)}
+        counts[family] = count
+    return table, colours, (counts["weft"], counts["warp"])
 
 
 def wif_text(fabric, *, title: str | None = None) -> str:
@@ -561,7 +670,7 @@ def wif_text(fabric, *, title: str | None = None) -> str:
     pitch = (fabric.scale or {}).get("pitch_mm")
     data = draft_of(fabric.pattern, warp_rgb=body_colour(fabric.warp.body_reflection),
                     weft_rgb=body_colour(fabric.weft.body_reflection), pitch_mm=pitch,
-                    title=title or f"weavecap {weave_name(fabric.pattern)}")
+                    title=title or f"weavecap {weave_name(fabric.pattern)}", threads=fabric.threads)
     out = io.StringIO()
     write_wif(out, data)
     return out.getvalue()

@@ -275,3 +275,26 @@ def test_the_maps_in_plain_mitsuba_look_like_weavecap_render_reference(tmp_path,
                                                         pitch_mm=PITCH_MM, noise=False)).image
               for m in ("reference", exported)]
     assert deltaE_ciede2000(_mean_lab(images[1]), _mean_lab(images[0])) <= 2.5
+
+
+def _colour_class(rgb) -> str:
+    """The check fixture's three yarn colours told apart by chroma: red, navy or white."""
+    r, _, b = rgb
+    return "red" if r > 2 * b else "navy" if b > 2 * r else "white"
+
+
+def test_the_maps_of_a_yarn_dyed_fabric_cover_its_colour_repeat_thread_by_thread():
+    """The check (plain weave; 6-end and 7-pick colour orders of white, navy and red): its tile
+    spans the fabric's whole repeat, 14 picks × 6 ends, and the base colour at every cell's
+    centre is the colour of the thread on top there, as the forward model counts the threads."""
+    fabric = params.load(FIXTURE / "check_plain.json")
+    maps = pbr_maps(fabric, pitch_mm=PITCH_MM, texels_per_yarn=T)
+    assert maps.shape == (14 * T, 6 * T) and maps.repeats == (7, 3)
+    assert maps.size_mm == pytest.approx((6 * PITCH_MM, 14 * PITCH_MM))
+    names = {entry.body_reflection: _colour_class(entry.body_reflection) for entry in fabric.threads.warp.palette}
+    for i in range(14):
+        for j in range(6):
+            weft = fabric.pattern[i % 2, j % 2] == 1
+            order = fabric.threads.weft if weft else fabric.threads.warp
+            want = names[order.palette[order.sequence[(i if weft else j) % order.repeat]].body_reflection]
+            assert _colour_class(maps.base_color[i * T + T // 2, j * T + T // 2]) == want, (i, j)

@@ -222,10 +222,45 @@ def write_read(tmp_path: Path, fabric) -> wif.Draft:
 
 @pytest.mark.parametrize("path", FIXTURES, ids=[p.stem for p in FIXTURES])
 def test_every_fixture_round_trips_exactly(tmp_path, path):
+    """Pattern and thread colours: the draft spans the fabric's whole repeat (the lcm of the
+    weave's and the colour repeats), and its colour orders read back as the params hold them,
+    each colour to the table's 8 bits."""
     fabric = params.load(path)
     draft = write_read(tmp_path, fabric)
     np.testing.assert_array_equal(draft.pattern, fabric.pattern)
-    np.testing.assert_array_equal(draft.drawdown, fabric.pattern)
+    reps = np.array(fabric.full_repeat) // np.array(fabric.shape)
+    np.testing.assert_array_equal(draft.drawdown, np.tile(fabric.pattern, reps))
+    for family in ("warp", "weft"):
+        want = fabric.threads.family(family) if fabric.threads else None
+        got = draft.threads.family(family) if draft.threads else None
+        assert (got is None) == (want is None), family
+        if want is not None:
+            assert got.sequence == want.sequence
+            np.testing.assert_allclose(got.per_thread("body_reflection"), want.per_thread("body_reflection"),
+                                       atol=0.004)
+
+
+def test_thread_colours_round_trip_from_a_fitted_fabric(tmp_path):
+    """A colour order of any palette order and length survives params -> WIF -> params: a
+    13-pick weft order of 4 colours on a twill 2/1 with a 5-end warp order (lcm 39 picks × 15
+    ends drafted)."""
+    rng = np.random.default_rng(3)
+    base = params.load(ROOT / "fixtures" / "params" / "twill_2_1.json")
+
+    def order(n: int, colours: int) -> params.ThreadColours:
+        seq = np.concatenate([np.arange(colours), rng.integers(0, colours, n - colours)])
+        rgb = [tuple(float(v) for v in rng.random(3)) for _ in range(colours)]
+        return params.ThreadColours(palette=tuple(params.PaletteEntry(c, c) for c in rgb),
+                                    sequence=tuple(int(k) for k in seq))
+
+    fabric = base.with_threads(params.Threads(warp=order(5, 2), weft=order(13, 4)))
+    draft = write_read(tmp_path, fabric)
+    assert draft.drawdown.shape == (39, 15)
+    back = fabric.with_threads(draft.threads)
+    for family in ("warp", "weft"):
+        assert back.threads.family(family).sequence == fabric.threads.family(family).sequence
+        np.testing.assert_allclose(back.threads.family(family).per_thread("body_reflection"),
+                                   fabric.threads.family(family).per_thread("body_reflection"), atol=0.004)
 
 
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])

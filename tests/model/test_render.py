@@ -22,9 +22,9 @@ RED, BLUE = (0.8, 0.1, 0.1), (0.1, 0.1, 0.8)
 
 
 def two_colour(fabric: params.Fabric) -> params.Fabric:
-    """The fabric with a red warp and a blue weft."""
-    return fabric.replace({"warp.body_reflection": RED, "warp.body_subsurface": RED,
-                           "weft.body_reflection": BLUE, "weft.body_subsurface": BLUE})
+    """The fabric with a red warp and a blue weft (every thread: no colour order)."""
+    return fabric.with_threads(None).replace({"warp.body_reflection": RED, "warp.body_subsurface": RED,
+                                              "weft.body_reflection": BLUE, "weft.body_subsurface": BLUE})
 
 
 def cell_means(image: np.ndarray, shape: tuple[int, int]) -> np.ndarray:

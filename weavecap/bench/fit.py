@@ -17,7 +17,8 @@ That set cannot show model mismatch: its photos come from the model that fits th
 yarns with their own shading, exposure and white balance off. Its truth is the pattern (face
 and direction included); every photo of both sets is also scored by the fidelity figures of
 :mod:`weavecap.fit.fidelity` (sharpness, each family's ΔE2000, structure correlation) between
-the photo's repeat and the fit's render.
+the photo's repeat and the fit's render, and by its pixel figures at the photo's scale
+(colour ΔE p90, sharpness, structure over every whole cell, :mod:`weavecap.fit.compare`).
 """
 
 from __future__ import annotations
@@ -172,7 +173,8 @@ def run(presets: tuple[str, ...], *, quick: bool, folder: Path | None = None, se
                 fid = row["fidelity"] or {}
                 progress(f"{preset:6s} {photo.path.name:22s} {row['status']:8s} {row['seconds']:6.1f} s  "
                          f"pattern {'exact' if row['pattern_exact'] else 'wrong'} ({row['fitted_weave']})  "
-                         f"PSNR {row['psnr_db']}  sharpness {fid.get('sharpness')}  dE {fid.get('delta_e')}")
+                         f"PSNR {row['psnr_db']}  sharpness {fid.get('sharpness')}  dE {fid.get('delta_e')}  "
+                         f"pixel p90 {(fid.get('photo_scale') or {}).get('colour_p90')}")
     return results
 
 
@@ -252,14 +254,23 @@ def exposure_table(rows: list[dict]) -> str:
 
 def _fidelity_summary(fitted: list[dict]) -> dict:
     """Median and worst of the fidelity figures over fitted photos: sharpness (worst = lowest),
-    ΔE over both families of every photo (worst = highest), structure (median)."""
+    ΔE over both families of every photo (worst = highest), structure (median); and of the
+    pixel figures at the photo's scale (:func:`weavecap.fit.fidelity.pixel_fidelity`): colour
+    ΔE p90 (median, worst = highest), sharpness (median, worst = lowest), structure (median)."""
     sharp = [r["fidelity"]["sharpness"] for r in fitted if r.get("fidelity") and r["fidelity"]["sharpness"] is not None]
     de = [v for r in fitted if r.get("fidelity") for v in r["fidelity"]["delta_e"].values() if v is not None]
     struct = [r["fidelity"]["structure"] for r in fitted if r.get("fidelity") and r["fidelity"]["structure"] is not None]
+    scale = [r["fidelity"].get("photo_scale") or {} for r in fitted if r.get("fidelity")]
+    p90, s_sharp, s_struct = ([f[k] for f in scale if f.get(k) is not None]
+                              for k in ("colour_p90", "sharpness", "structure"))
     nan = float("nan")
     return {"sharpness_median": statistics.median(sharp) if sharp else nan, "sharpness_worst": min(sharp, default=nan),
             "delta_e_median": statistics.median(de) if de else nan, "delta_e_worst": max(de, default=nan),
-            "structure_median": statistics.median(struct) if struct else nan}
+            "structure_median": statistics.median(struct) if struct else nan,
+            "pixel_p90_median": statistics.median(p90) if p90 else nan, "pixel_p90_worst": max(p90, default=nan),
+            "photo_sharpness_median": statistics.median(s_sharp) if s_sharp else nan,
+            "photo_sharpness_worst": min(s_sharp, default=nan),
+            "photo_structure_median": statistics.median(s_struct) if s_struct else nan}
 
 
 def summary(results: list[dict]) -> list[dict]:
@@ -301,15 +312,27 @@ def independent_table(rows: list[dict]) -> str:
     """The independent set's table (markdown): pattern, fidelity and time per preset, and how
     many photos were captured under more than one rig (:func:`weavecap.fit.rigs.search`)."""
     out = ["| preset | photos fitted | median s | max s | pattern exact | median PSNR | sharpness median | "
-           "sharpness worst | ΔE2000 median | ΔE2000 worst | structure median | rigs searched |", "|" + "---|" * 12]
+           "sharpness worst | ΔE2000 median | ΔE2000 worst | structure median | " + PIXEL_HEADER + " | rigs searched |",
+           "|" + "---|" * 15]
     for r in rows:
         if r.get("set") != "independent":
             continue
         out.append(f"| {r['preset']} | {r['fitted']}/{r['photos']} | {r['median_s']:.1f} | {r['max_s']:.1f} | "
                    f"{r['pattern_exact']:.0%} | {r['median_psnr_db']:.1f} dB | {r['sharpness_median']:.2f} | "
                    f"{r['sharpness_worst']:.2f} | {r['delta_e_median']:.1f} | {r['delta_e_worst']:.1f} | "
-                   f"{r['structure_median']:.2f} | {r.get('rigs_searched', 0)} |")
+                   f"{r['structure_median']:.2f} | {_pixel_cells(r)} | {r.get('rigs_searched', 0)} |")
     return "\n".join(out)
+
+
+#: the pixel figures' columns (at the photo's scale, :func:`weavecap.fit.fidelity.pixel_fidelity`)
+PIXEL_HEADER = "pixel ΔE p90 median / worst | photo-scale sharpness median / worst | photo-scale structure median"
+
+
+def _pixel_cells(r: dict) -> str:
+    nan = float("nan")
+    return (f"{r.get('pixel_p90_median', nan):.1f} / {r.get('pixel_p90_worst', nan):.1f} | "
+            f"{r.get('photo_sharpness_median', nan):.2f} / {r.get('photo_sharpness_worst', nan):.2f} | "
+            f"{r.get('photo_structure_median', nan):.2f}")
 
 
 def table(rows: list[dict]) -> str:
@@ -318,16 +341,16 @@ def table(rows: list[dict]) -> str:
     if not rows:
         return ""
     out = ["| preset | photos fitted | median s | max s | pattern exact | median PSNR | sharpness median / worst |"
-           " ΔE2000 median / worst | plies ±1 | fibres ±1 |"
+           " ΔE2000 median / worst | " + PIXEL_HEADER + " | plies ±1 | fibres ±1 |"
            " median rel. error (determined) | determined per photo | errors within 2 SE |"
-           " median rel. error (all continuous) |", "|" + "---|" * 14]
+           " median rel. error (all continuous) |", "|" + "---|" * 17]
     for r in rows:
         med = statistics.median(r["relative_error"].values())
         out.append(f"| {r['preset']} | {r['fitted']}/{r['photos']} | {r['median_s']:.1f} | {r['max_s']:.1f} | "
                    f"{r['pattern_exact']:.0%} | {r['median_psnr_db']:.1f} dB | "
                    f"{r.get('sharpness_median', float('nan')):.2f} / {r.get('sharpness_worst', float('nan')):.2f} | "
                    f"{r.get('delta_e_median', float('nan')):.1f} / {r.get('delta_e_worst', float('nan')):.1f} | "
-                   f"{r['plies_ok']:.0%} | "
+                   f"{_pixel_cells(r)} | {r['plies_ok']:.0%} | "
                    f"{r['fibers_ok']:.0%} | {r['median_error_determined']:.1%} | {r['determined_per_photo']:g} | "
                    f"{r['within_2se']:.0%} | {med:.1%} |")
     out += ["", "| parameter (median rel. error, share of photos that determine it) | "

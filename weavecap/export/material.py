@@ -87,11 +87,14 @@ def principled_albedo(*, roughness: float, specular: float, cos_view: np.ndarray
     return w.mean(axis=0).reshape(k, n * n).mean(axis=1)
 
 
-def surface_albedo(fabric: Fabric, surface, *, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+def surface_albedo(fabric: Fabric, surface, *, seed: int = 0,
+                   repeats: tuple[int, int] = (1, 1)) -> tuple[np.ndarray, np.ndarray]:
     """(H, W, 3) reflection and transmission albedo of the surface BSDF of the face, per texel
     (its area mean, the maps interpolated as the BSDF interpolates them), for a viewer straight
     above — the light it returns from a uniform sky over the face, and from one behind the
-    fabric through the yarns — per unit of covered area (the gaps are the opacity's business)."""
+    fabric through the yarns — per unit of covered area (the gaps are the opacity's business),
+    over ``repeats`` (rows, columns) of the weave repeat ``surface`` holds (each thread in its
+    colour, where the fabric has thread colours)."""
     mi = _mi()
     import drjit as dr
 
@@ -99,7 +102,8 @@ def surface_albedo(fabric: Fabric, surface, *, seed: int = 0) -> tuple[np.ndarra
 
     shading, colours = shading_of(fabric)
     textures = SurfaceTextures(surface)
-    h, w = surface.shape
+    h_one, w_one = surface.shape
+    h, w = h_one * repeats[0], w_one * repeats[1]
     n = SURFACE_SAMPLES
     rows_per_call = max(1, LANES // (w * n * n))
     out = np.zeros((2, h, w, 3), np.float32)
@@ -111,8 +115,8 @@ def surface_albedo(fabric: Fabric, surface, *, seed: int = 0) -> tuple[np.ndarra
         # each sample at its own place in the texel: the texel's area average, as a renderer
         # that sees many texels a pixel averages the interpolated maps
         jitter = np.random.default_rng(seed + r0 + 1).random((2, texels * n * n))
-        s = ((np.repeat(cc.ravel(), n * n) + jitter[0]) / w).astype(np.float32)
-        t = (1.0 - (np.repeat(rr.ravel(), n * n) + jitter[1]) / h).astype(np.float32)
+        s = ((np.repeat(cc.ravel(), n * n) + jitter[0]) / w_one).astype(np.float32)  # in weave repeats
+        t = (1.0 - (np.repeat(rr.ravel(), n * n) + jitter[1]) / h_one).astype(np.float32)
         point = textures.lookup(mi.Float(s), mi.Float(t), mi.Bool(False))
         wi = mi.Vector3f(0.0, 0.0, 1.0)
         wo, pdf, value, _ = sample_surface(shading, colours, point, wi, mi.Float(s1.ravel()),
@@ -122,7 +126,7 @@ def surface_albedo(fabric: Fabric, surface, *, seed: int = 0) -> tuple[np.ndarra
         up = np.array(wo.z > 0.0).reshape(texels, n * n, 1)
         out[0, r0:r1] = np.where(up, weight, 0.0).mean(axis=1).reshape(r1 - r0, w, 3)
         out[1, r0:r1] = np.where(up, 0.0, weight).mean(axis=1).reshape(r1 - r0, w, 3)
-    coverage = surface.coverage[0][..., None]
+    coverage = np.tile(surface.coverage[0], repeats)[..., None]
     out = np.where(coverage > 0.0, out / np.maximum(coverage, 1e-6), 0.0).astype(np.float32)
     return out[0], out[1]
 
@@ -156,15 +160,20 @@ def pbr_maps(fabric: Fabric, *, pitch_mm: float, texels_per_yarn: int = 16, repe
     ----------
     fabric : the captured fabric
     pitch_mm : yarn spacing, millimetres (``scale.pitch_mm``): the tile is ``n_a · pitch`` wide
-    texels_per_yarn : map resolution (lowered for large repeats by the surface model)
-    repeats : weave repeats per tile side (the maps are the one-repeat maps tiled)
+    texels_per_yarn : map resolution (lowered for large repeats by the surface model, and for
+        the fabric's whole repeat where it has thread colours)
+    repeats : repeats of the fabric per tile side: of the weave, or where the fabric has thread
+        colours, of its whole repeat (:attr:`weavecap.params.Fabric.full_repeat`, the lcm of the
+        weave's and the colour repeats: the colour maps are solved over it, the others are the
+        weave repeat's tiled)
     seed : of the stratified samples (the same seed gives the same maps)
     """
-    from ..render.surface import FACE, bake
+    from ..render.surface import FACE, bake, texels_for
 
-    surface = bake(fabric, texels_per_yarn=texels_per_yarn)
-    coverage = surface.coverage[FACE]
-    normal = surface.normal[FACE]
+    colour_tile = tuple(int(f // n) for f, n in zip(fabric.full_repeat, fabric.shape))  # weave repeats
+    surface = bake(fabric, texels_per_yarn=texels_for(fabric.full_repeat, texels_per_yarn))
+    coverage = np.tile(surface.coverage[FACE], colour_tile)
+    normal = np.tile(surface.normal[FACE], colour_tile + (1,))
     rough = roughness_of(fabric)
     ior, spec_colour = float(fabric.specular.ior), float(np.mean(fabric.specular.reflection))
     level = specular_level(ior, spec_colour)
@@ -173,7 +182,7 @@ def pbr_maps(fabric: Fabric, *, pitch_mm: float, texels_per_yarn: int = 16, repe
     a1 = principled_albedo(roughness=rough, specular=level, cos_view=cos_table, base=1.0, seed=seed)
     cos_n = np.clip(normal[..., 2], MIN_COS, 1.0)
     lo, span = np.interp(cos_n, cos_table, a0)[..., None], np.interp(cos_n, cos_table, a1 - a0)[..., None]
-    reflection, transmission = surface_albedo(fabric, surface, seed=seed)
+    reflection, transmission = surface_albedo(fabric, surface, seed=seed, repeats=colour_tile)
     gaps = coverage < MIN_COVERAGE
     transmission = _fill_gaps(np.clip(transmission, 0.0, 1.0), gaps)
     # a material that also transmits gives its reflection lobes the weight 1 - w
@@ -181,9 +190,9 @@ def pbr_maps(fabric: Fabric, *, pitch_mm: float, texels_per_yarn: int = 16, repe
     base = _fill_gaps(np.clip((reflection - lo) / np.maximum(span, 1e-6), 0.0, 1.0), gaps)
     translucent = _fill_gaps(np.clip((reflection / np.maximum(1.0 - weight, 1e-6) - lo) / np.maximum(span, 1e-6),
                                      0.0, 1.0), gaps)
-    height = surface.height[FACE] * pitch_mm
+    height = np.tile(surface.height[FACE], colour_tile) * pitch_mm
     h_lo, h_hi = float(height.min()), float(height.max())
-    n_e, n_a = fabric.shape
+    n_e, n_a = fabric.full_repeat
     tile = (repeats, repeats)
 
     def rep(a: np.ndarray) -> np.ndarray:
@@ -193,5 +202,6 @@ def pbr_maps(fabric: Fabric, *, pitch_mm: float, texels_per_yarn: int = 16, repe
                    normal=rep(normal), roughness=rep(np.full(coverage.shape, rough)),
                    opacity=rep(np.clip(coverage, 0.0, 1.0)),
                    height=rep((height - h_lo) / max(h_hi - h_lo, 1e-9)), height_mm=h_hi - h_lo,
-                   size_mm=(n_a * repeats * pitch_mm, n_e * repeats * pitch_mm), repeats=tile,
+                   size_mm=(n_a * repeats * pitch_mm, n_e * repeats * pitch_mm),
+                   repeats=(repeats * colour_tile[0], repeats * colour_tile[1]),
                    ior=ior, specular=spec_colour)

@@ -235,6 +235,30 @@ def mean_repeat(image: np.ndarray, cells: CellGrid, c: int, model: np.ndarray | 
     :func:`weavecap.fit.rounds.fit_registered` tries both and keeps the lower loss.
     Returns (n_e*c, n_a*c, 3) float32.
     """
+    return repeats_canvas(image, cells, c, model, hold_phase=hold_phase)[1]
+
+
+def repeats_canvas(image: np.ndarray, cells: CellGrid, c: int, model: np.ndarray | None = None, *,
+                   hold_phase: bool = False) -> tuple[np.ndarray, np.ndarray, CellGrid]:
+    """Every whole repeat of ``image`` on the lattice of ``cells`` as one cell canvas, read
+    along the lattice's drift where ``model`` is given and the drift is no mismatch (as
+    :func:`mean_repeat` describes, which is this canvas's median over the repeats).
+
+    Returns
+    -------
+    canvas : (ky*n_e*c, kx*n_a*c, 3) float32, the ky × kx repeats, cell (v, u) of the
+        canvas being cell (v mod n_e, u mod n_a) of the pattern
+    median : (n_e*c, n_a*c, 3) float32, the median repeat
+    lattice : the canvas's cells in ``image`` pixels (a regular lattice; the drift not included)
+    """
+    canvas, median, lattice, _ = _followed(image, cells, c, model, hold_phase)
+    return canvas, median, lattice
+
+
+def _followed(image: np.ndarray, cells: CellGrid, c: int, model: np.ndarray | None, hold_phase: bool):
+    """:func:`repeats_canvas`'s canvas, median and lattice, and the drift it followed: a
+    function of (y, x) in repeats from the lattice's origin giving (dy, dx) in canvas px, or
+    None."""
     n_e, n_a = cells.shape
     lattice, ky, kx = _whole_repeats(image.shape[:2], cells)
     canvas = cell_canvas(image, lattice, c)
@@ -246,19 +270,64 @@ def mean_repeat(image: np.ndarray, cells: CellGrid, c: int, model: np.ndarray | 
         return median[0, :, 0].astype(np.float32), float(np.mean(np.abs(blocks - median)))
 
     median, spread = median_and_spread(canvas)
-    if model is not None and ky * kx >= 3:
-        blocks = canvas.mean(axis=2).reshape(ky, h, kx, w).transpose(0, 2, 1, 3)
-        drift = lattice_drift(blocks, np.asarray(model).mean(axis=2), c)
-        field = drift(((np.arange(ky * h) + 0.5) / h)[:, None], ((np.arange(kx * w) + 0.5) / w)[None, :])  # canvas px
-        scale = np.array([np.diff(lattice.rows).mean(), np.diff(lattice.cols).mean()]) / c  # image px per canvas px
-        if hold_phase:  # the drift from where the cells' own repeat is, not from the model
-            field = field - correlation_shift(cell_canvas(image, cells, c).mean(axis=2),
-                                              np.asarray(model).mean(axis=2))
-        canvas = cell_canvas(image, lattice, c, offset=np.moveaxis(field * scale, 2, 0))
-        followed, followed_spread = median_and_spread(canvas)
-        if followed_spread <= MISMATCH_SPREAD * spread:
-            median = followed
-    return median
+    if model is None or ky * kx < 3:
+        return canvas, median, lattice, None
+    blocks = canvas.mean(axis=2).reshape(ky, h, kx, w).transpose(0, 2, 1, 3)
+    measured = lattice_drift(blocks, np.asarray(model).mean(axis=2), c)
+    held = correlation_shift(cell_canvas(image, cells, c).mean(axis=2), np.asarray(model).mean(axis=2)) \
+        if hold_phase else 0.0  # the drift from where the cells' own repeat is, not from the model
+
+    def drift(y, x) -> np.ndarray:
+        return measured(y, x) - held
+
+    followed_canvas = _drifted_canvas(image, lattice, c, drift, (0, 0), (n_e, n_a))
+    followed, followed_spread = median_and_spread(followed_canvas)
+    if followed_spread <= MISMATCH_SPREAD * spread:
+        return followed_canvas, followed, lattice, drift
+    return canvas, median, lattice, None
+
+
+def _drifted_canvas(image: np.ndarray, lattice: CellGrid, c: int, drift, first: tuple[int, int],
+                    shape: tuple[int, int]) -> np.ndarray:
+    """The cell canvas of ``lattice`` read along ``drift`` (of :func:`_followed`), whose first
+    cell is cell ``first`` (v, u) from the drift's origin, for a repeat of ``shape``."""
+    h, w = shape[0] * c, shape[1] * c
+    rows, cols = lattice.shape
+    field = drift(((np.arange(rows * c) + 0.5 + first[0] * c) / h)[:, None],
+                  ((np.arange(cols * c) + 0.5 + first[1] * c) / w)[None, :])  # canvas px
+    scale = np.array([np.diff(lattice.rows).mean(), np.diff(lattice.cols).mean()]) / c  # image px per canvas px
+    return cell_canvas(image, lattice, c, offset=np.moveaxis(field * scale, 2, 0))
+
+
+def cells_canvas(image: np.ndarray, cells: CellGrid, c: int, model: np.ndarray | None = None, *,
+                 hold_phase: bool = False) -> tuple[np.ndarray, tuple[int, int], CellGrid]:
+    """Every whole cell of ``image`` (half a pitch clear of its border) on the lattice of
+    ``cells``, read along the drift :func:`repeats_canvas` follows: more threads than whole
+    repeats hold, for what is read per thread (:mod:`weavecap.estimate.thread_colours`).
+
+    Returns
+    -------
+    canvas : (Y*c, X*c, 3) float32
+    first : (v0, u0), the canvas's first cell counted from a repeat's first cell: canvas cell
+        (v, u) is pattern cell ((v + v0) mod n_e, (u + u0) mod n_a), in [0, n_e) × [0, n_a)
+    lattice : the canvas's cells in ``image`` pixels
+    """
+    n_e, n_a = cells.shape
+    _, _, repeats, drift = _followed(image, cells, c, model, hold_phase)
+    axes, first = [], []
+    for bounds, n, size in ((repeats.rows, n_e, image.shape[0]), (repeats.cols, n_a, image.shape[1])):
+        pitch = float(np.diff(bounds).mean())
+        k0 = int(np.ceil((0.5 * pitch - bounds[0]) / pitch))  # the first cell half a pitch clear
+        k1 = int(np.floor((size - 0.5 * pitch - bounds[0]) / pitch))  # one past the last
+        k1 = max(k1, k0 + 1)
+        axes.append(bounds[0] + pitch * np.arange(k0, k1 + 1))
+        first.append(k0)
+    lattice = CellGrid(rows=axes[0], cols=axes[1])
+    if drift is None:
+        canvas = cell_canvas(image, lattice, c)
+    else:
+        canvas = _drifted_canvas(image, lattice, c, drift, (first[0], first[1]), (n_e, n_a))
+    return canvas, (first[0] % n_e, first[1] % n_a), lattice
 
 
 def dual(fabric: Fabric) -> Fabric:

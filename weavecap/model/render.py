@@ -103,6 +103,8 @@ class GBuffer:
         point when it lights the far side)
     ao : Float, the ambient occlusion factor (1 on yarn tops, AO_FLOOR deepest)
     fabric_uv : Point2f, the hit's position in repeats (body-colour textures), or None
+    thread : Int32, the index of the yarn hit in the tiled fabric (its column for a warp, its
+        row for a weft; :mod:`weavecap.model.threads`), for per-thread colours, or None
     """
 
     shape: tuple[int, int]
@@ -115,6 +117,7 @@ class GBuffer:
     lit: list
     ao: object
     fabric_uv: object = None
+    thread: object = None
 
     @property
     def size(self) -> int:
@@ -150,9 +153,13 @@ def geometry_pass(fs: FabricScene, *, spp: int, seed: int) -> GBuffer:
         if fs.textures:
             n_e, n_a = fs.fabric.shape
             fabric_uv = mi.Point2f(si.p.x / (n_a * PITCH), si.p.y / (n_e * PITCH))
-        g = GBuffer(shape=shape, spp=spp, hit=hit, is_warp=si.shape == fs.warp_shape, uv=mi.Point2f(si.uv),
-                    wv=mi.Vector3f(si.wi), wl=wl, lit=lit, ao=ao, fabric_uv=fabric_uv)
-        dr.eval(g.hit, g.is_warp, g.uv, g.wv, g.wl, g.lit, g.ao, g.fabric_uv)
+        is_warp = si.shape == fs.warp_shape
+        thread = None
+        if fs.threads:  # warp j lies in x ∈ [j, j + 1) pitches, weft i in y ∈ [i, i + 1)
+            thread = mi.Int32(dr.floor(dr.select(is_warp, si.p.x, si.p.y) / PITCH))
+        g = GBuffer(shape=shape, spp=spp, hit=hit, is_warp=is_warp, uv=mi.Point2f(si.uv),
+                    wv=mi.Vector3f(si.wi), wl=wl, lit=lit, ao=ao, fabric_uv=fabric_uv, thread=thread)
+        dr.eval(g.hit, g.is_warp, g.uv, g.wv, g.wl, g.lit, g.ao, g.fabric_uv, g.thread)
     return g
 
 
@@ -166,19 +173,21 @@ def _broadcast(value, size: int):
 
 
 def _body_colours(fs: FabricScene, g: GBuffer):
-    """R^B and S^B at each hit: the warp's or the weft's colour, or their textures."""
-    out = []
-    for key in ("body_reflection", "body_subsurface"):
+    """R^B and S^B at each hit: the warp's or the weft's colour, their textures, or the colour
+    of the thread hit where the family has a colour order (:mod:`weavecap.model.threads`)."""
+    per_yarn = {}
+    for yarn in ("warp", "weft"):
+        table = fs.threads.get(yarn)
+        if table is not None:
+            per_yarn[yarn] = table.at(g.thread)
+            continue
         colours = []
-        for yarn in ("warp", "weft"):
+        for key in ("body_reflection", "body_subsurface"):
             dotted = f"{yarn}.{key}"
             tex = fs.textures.get(dotted)
-            if tex is None:
-                colours.append(_broadcast(fs.values[dotted], g.size))
-            else:
-                colours.append(mi.Color3f(tex.eval(g.fabric_uv)))
-        out.append(dr.select(g.is_warp, colours[0], colours[1]))
-    return out
+            colours.append(_broadcast(fs.values[dotted], g.size) if tex is None else mi.Color3f(tex.eval(g.fabric_uv)))
+        per_yarn[yarn] = colours
+    return [dr.select(g.is_warp, per_yarn["warp"][k], per_yarn["weft"][k]) for k in range(2)]
 
 
 def shade(fs: FabricScene, g: GBuffer):

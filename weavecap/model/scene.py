@@ -18,6 +18,7 @@ from ..errors import InputError
 from ..params import FIT_RANGES, Fabric
 from . import bysdf as _bysdf
 from .geometry import PITCH, TubeMesh, crossover_height, fabric_meshes
+from .threads import thread_tables
 
 mi = _bysdf.mi
 dr = _bysdf.dr
@@ -232,6 +233,7 @@ class FabricScene:
     z_range: tuple[float, float] = (0.0, 1.0)
     cache: dict = field(default_factory=dict)  # G-buffers of weavecap.model.render, per (spp, seed)
     built: dict = field(default_factory=dict)  # the last geometries built (:func:`_rebuild`)
+    threads: dict = field(default_factory=dict)  # family → per-thread colours (weavecap.model.threads)
 
     def set(self, key: str, value) -> None:
         """Set one parameter by dotted key (or ``"pattern"``); a radius or a pattern rebuilds
@@ -250,6 +252,18 @@ class FabricScene:
         dr.make_opaque(new)
         self.values[key] = new
         _bind_shapes(self)
+
+    def set_threads(self, threads) -> None:
+        """Give the fabric these thread colours (:class:`weavecap.params.Threads`, or None for
+        the family colours on every thread): new tables, and new G-buffers where the thread
+        indices were not cast before (the geometry stays)."""
+        had = bool(self.threads)
+        self.fabric = self.fabric.with_threads(threads)
+        self.threads = thread_tables(self.fabric)
+        if bool(self.threads) != had:
+            self.cache.clear()
+            for built in self.built.values():
+                built[3].clear()
 
     def to_fabric(self) -> Fabric:
         """The fabric with the store's current values (plies and fibres rounded to integers)."""
@@ -352,7 +366,8 @@ def build_scene(fabric: Fabric, view: View | None = None, *, light: str | LightR
     view = view or View()
     rig = light if isinstance(light, LightRig) else light_rig(light)
     frame = make_frame(fabric.shape, view)
-    fs = FabricScene(fabric=fabric, view=view, rig=rig, frame=frame, scene=None, values=parameter_store(fabric))
+    fs = FabricScene(fabric=fabric, view=view, rig=rig, frame=frame, scene=None, values=parameter_store(fabric),
+                     threads=thread_tables(fabric))
     for yarn in ("warp", "weft"):
         tex = fabric.get(f"{yarn}.body_reflection")
         if isinstance(tex, str):

@@ -37,6 +37,7 @@ import numpy as np
 
 from ..model import bysdf as _bysdf
 from ..model.scene import SHADING_KEYS, body_texture, parameter_store
+from ..model.threads import surface_colours, thread_tables
 from ..params import Fabric
 from .surface import BACK, FACE, HORIZON_AZIMUTHS, THROUGH_AZIMUTH_DEG, THROUGH_TILT_DEG, NoiseMap, SurfaceMaps
 
@@ -193,7 +194,9 @@ class SurfaceTextures:
 
 @dataclass
 class YarnColours:
-    """Body colours of the warp and the weft (``mi.Color3f``, or a texture over the repeat)."""
+    """Body colours of the warp and the weft (``mi.Color3f``, or a texture over the repeat), or
+    per thread where a family has a colour order (``threads``:
+    :func:`weavecap.model.threads.thread_tables`, over a repeat of ``shape``)."""
 
     warp_reflection: object
     weft_reflection: object
@@ -201,14 +204,21 @@ class YarnColours:
     weft_subsurface: object
     warp_texture: object = None
     weft_texture: object = None
+    threads: dict | None = None
+    shape: tuple[int, int] = (1, 1)
 
     def at(self, point: SurfacePoint):
-        """(R^B, S^B) at a point: the warp's and the weft's colours mixed by its warp share."""
+        """(R^B, S^B) at a point: the warp's and the weft's colours (its threads' where they
+        have a colour order) mixed by its warp share."""
         w = point.warp
         warp_r = self.warp_reflection if self.warp_texture is None else mi.Color3f(self.warp_texture.eval(point.uv))
         weft_r = self.weft_reflection if self.weft_texture is None else mi.Color3f(self.weft_texture.eval(point.uv))
-        return (w * warp_r + (1.0 - w) * weft_r,
-                w * self.warp_subsurface + (1.0 - w) * self.weft_subsurface)
+        warp_s, weft_s = self.warp_subsurface, self.weft_subsurface
+        if self.threads:
+            own = surface_colours(self.threads, self.shape, point.uv.x, -point.uv.y)
+            warp_r, warp_s = own.get("warp", (warp_r, warp_s))
+            weft_r, weft_s = own.get("weft", (weft_r, weft_s))
+        return (w * warp_r + (1.0 - w) * weft_r, w * warp_s + (1.0 - w) * weft_s)
 
 
 def shading_of(fabric: Fabric) -> tuple[_bysdf.Shading, YarnColours]:
@@ -223,7 +233,8 @@ def shading_of(fabric: Fabric) -> tuple[_bysdf.Shading, YarnColours]:
             store[f"{yarn}.body_reflection"] = mi.Color3f(*mean)
     colours = YarnColours(warp_reflection=store["warp.body_reflection"], weft_reflection=store["weft.body_reflection"],
                           warp_subsurface=store["warp.body_subsurface"], weft_subsurface=store["weft.body_subsurface"],
-                          warp_texture=textures.get("warp"), weft_texture=textures.get("weft"))
+                          warp_texture=textures.get("warp"), weft_texture=textures.get("weft"),
+                          threads=thread_tables(fabric), shape=fabric.shape)
     return shading, colours
 
 

@@ -85,6 +85,38 @@ def _query(bsdf, n=256, seed=0, size=None):
     return np.array(bsdf.query(_f(s), _f(t), _f(sizes), vec(wi), vec(wo), mi.Bool(np.zeros(n, dtype=bool)))).T
 
 
+def test_thread_colours_weigh_the_body_channels_outside_the_network(plain):
+    """A colour order whose every thread wears the family's own colours renders as the family
+    colours do (the threads' colours multiply unit-coloured body coefficients: exact); a warp
+    order red, blue: a point on warp 0's float is red-dominated, one on warp 1's blue, and a
+    footprint over both repeats of the order sees their mean (the order box-filtered)."""
+    fabric, maps = plain
+    own = params.PaletteEntry(fabric.warp.body_reflection, fabric.warp.body_subsurface)
+    same = fabric.with_threads(params.Threads(warp=params.ThreadColours(palette=(own,), sequence=(0, 0, 0))))
+    base = _query(NeuralSurfaceBSDF(fabric, maps, bench.placement_of(fabric)))
+    np.testing.assert_allclose(_query(NeuralSurfaceBSDF(same, maps, bench.placement_of(same))), base,
+                               rtol=1e-5, atol=1e-7)
+    red, blue = (0.8, 0.05, 0.05), (0.05, 0.05, 0.8)
+    order = params.ThreadColours(palette=(params.PaletteEntry(red, red), params.PaletteEntry(blue, blue)),
+                                 sequence=(0, 1))
+    striped = fabric.with_threads(params.Threads(warp=order))
+    bsdf = NeuralSurfaceBSDF(striped, maps, bench.placement_of(striped))
+    n_e, n_a = fabric.shape
+    up = mi.Vector3f(0.0, 0.0, 1.0)
+
+    def at(j: int, i: int, size: float) -> np.ndarray:  # the centre of cell (i, j), seen and lit from above
+        s, t = (j + 0.5) / n_a, 1.0 - (i + 0.5) / n_e
+        return np.array(bsdf.query(_f([s]), _f([t]), _f([size]), up, up, mi.Bool(False))).ravel()
+
+    warp_cells = [(i, j) for i in range(n_e) for j in range(n_a) if fabric.pattern[i, j] == 0]
+    (i0, j0) = next((i, j) for i, j in warp_cells if j % 2 == 0)
+    (i1, j1) = next((i, j) for i, j in warp_cells if j % 2 == 1)
+    assert at(j0, i0, 0.0)[0] > 2 * at(j0, i0, 0.0)[2]  # warp 0: red
+    assert at(j1, i1, 0.0)[2] > 2 * at(j1, i1, 0.0)[0]  # warp 1: blue
+    wide = at(j0, i0, 4.0)  # 4 pitches: two whole repeats of the order, red and blue alike
+    assert 0.6 < wide[0] / wide[2] < 1.6
+
+
 def test_colours_change_without_encoding_and_roughness_re_encodes(plain, monkeypatch):
     fabric, maps = plain
     _, _, encoder = shared_model()

@@ -29,6 +29,7 @@ import numpy as np
 from ...params import Fabric
 from ..bsdf import AMBIENT, Placement, SurfaceBSDF, SurfacePoint, ambient_surface, opaque, shading_of
 from ..surface import NoiseMap, SurfaceMaps
+from ...model.threads import surface_colours, thread_tables
 from . import terms as _terms
 from .footprint import baseline_channels, filtered_point
 from .infer import BoxFilter, Decoder, FabricLatents, coverage_filter, footprint_filter, load_weights
@@ -88,7 +89,9 @@ class NeuralSurfaceBSDF(SurfaceBSDF):
         self.decoder = Decoder(self.arrays, self.latents, use_features=self.use_features,
                                use_baseline=self.use_baseline)
         self.shading, self.colours = shading_of(fabric)
-        self.set_colours(_terms.fabric_colours(fabric))
+        self.threads = thread_tables(fabric)  # per-thread colours weigh their family's body channels in query
+        self.set_colours({**_terms.fabric_colours(fabric),
+                          **{f"{f}_{k}": (1.0, 1.0, 1.0) for f in self.threads for k in ("reflection", "subsurface")}})
 
     def set_colours(self, colours: dict) -> None:
         """New colours (the dict of :func:`.terms.fabric_colours`): no encoding, no kernel
@@ -137,8 +140,13 @@ class NeuralSurfaceBSDF(SurfaceBSDF):
         features = self.features.mean(x, y, half, back)
         baseline = baseline_channels(self.shading, features, wi, wo) if self.use_baseline else None
         values = self.decoder.values(s, t, size, wi, wo, features, back, baseline)
+        # a family with a colour order: its threads' mean colours over the footprint
+        tint = surface_colours(self.threads, self.pattern_shape, s, t, 0.5 * size)
         rgb = mi.Color3f(0.0)
-        for coef, v in zip(self.coefficients, values):
+        for name, coef, v in zip(_terms.CHANNELS, self.coefficients, values):
+            family = name.rsplit("_", 1)[1]
+            if family in tint and name.startswith("body"):
+                coef = coef * tint[family][0 if name.startswith("body_r") else 1]
             rgb += coef * v
         rgb *= self._gain(s, t, size)
         return dr.select((wi.z > 0.0) & dr.isfinite(rgb.x + rgb.y + rgb.z), rgb, 0.0)
@@ -167,6 +175,7 @@ class NeuralSurfaceBSDF(SurfaceBSDF):
         point = filtered_point(features)
         point.occlusion = self.occlusion.mean(x, y, half, back)[0] / dr.maximum(features[0], 1e-6)
         point.gain = self._gain(s, t, size)
+        point.uv = mi.Point2f(s, -t)  # where the thread colours are read
         return point
 
     # -- the BSDF interface -------------------------------------------------------------------
