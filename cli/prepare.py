@@ -10,7 +10,7 @@ import click
 
 from .options import force_option, quiet_option, verbose_option
 
-OUTPUTS = ("rectified.png", "regularized.png", "grid.png", "prepare.json")
+OUTPUTS = ("rectified.png", "regularized.png", "grid.png", "diagnosis.png", "prepare.json")
 
 
 @click.command()
@@ -30,14 +30,17 @@ def prepare(photo: Path, out_dir: Path, pattern_file: Path | None, force: bool, 
     vertically, perspective undone), regularized.png (whole repeats, denoised by kernel PCA),
     grid.png (the yarn boundaries over the rectified photo, one repeat outlined in magenta:
     check it by eye) and prepare.json (rotation, homography input→rectified pixels, pitch,
-    repeat and yarn counts; the "rectification" and "grid" parts of report.json).
+    repeat and yarn counts, the colour repeat; the "rectification" and "grid" parts of
+    report.json).
 
     rotation_deg is the counter-clockwise turn (as seen on screen) that makes the warps run
     vertically: a fabric turned counter-clockwise by 10° in the photo gives -10.
 
     A photo that is not a resolvable woven fabric (uniform, noise, knitted, felt, yarns under
-    3 px, no periodic grid) is rejected: the reason is printed, nothing is written, and the
-    exit status is 3.
+    3.5 px, no periodic grid) is rejected: the reason is printed, the exit status is 3, and
+    the output folder gets diagnosis.png (the photo as the grid search saw it, its spectrum,
+    the projections along the yarns and the reason: what to reshoot) and prepare.json
+    (status "rejected", reason, the measurements).
 
     \b
     Examples:
@@ -72,7 +75,13 @@ def prepare(photo: Path, out_dir: Path, pattern_file: Path | None, force: bool, 
     if isinstance(result, Rejected):
         if verbose:
             click.echo(json.dumps(result.to_json()["checks"], indent=1), err=True)
-        raise PhotoError(f"{photo}: rejected ({result.code}): {result.reason}; nothing was written")
+        rejected = {"format": "weavecap.prepare/1",
+                    "input": {"path": str(photo), "sha256": loaded.sha256, "width": loaded.width,
+                              "height": loaded.height}, **result.to_json()}
+        write_result_set(out_dir, {"diagnosis.png": lambda path: save_png(path, result.diagnosis(loaded.rgb))},
+                         record=("prepare.json", json.dumps(rejected, indent=1) + "\n"), outputs=OUTPUTS)
+        raise PhotoError(f"{photo}: rejected ({result.code}): {result.reason}; "
+                         f"what the grid search saw: {out_dir / 'diagnosis.png'}")
 
     report = {
         "format": "weavecap.prepare/1",

@@ -25,7 +25,7 @@ from .fit.fidelity import captioned, faithful_figures, fidelity
 from .fit.target import align_cells, repeat_cells
 
 REPORT_FORMAT = "weavecap.report/1"
-OUTPUT_FILES = ("params.json", "report.json", "compare.png", "rectified.png", "grid.png", "loss.png")
+OUTPUT_FILES = ("params.json", "report.json", "compare.png", "rectified.png", "grid.png", "loss.png", "diagnosis.png")
 
 
 @dataclass(frozen=True)
@@ -218,7 +218,9 @@ def capture_under_rig(photo_path: str | Path, options: CaptureOptions, *,
     timings["prepare"] = time.perf_counter() - t
     if isinstance(prepared, Rejected):
         report["checks"] = prepared.to_json()["checks"]
-        return _rejected(report, prepared.reason, prepared.code, timings, t0)
+        cap = _rejected(report, prepared.reason, prepared.code, timings, t0)
+        cap.images["diagnosis.png"] = prepared.diagnosis(photo.rgb)  # what the grid search saw
+        return cap
     prep = prepared.to_json()
     report["rectification"], report["grid"] = prep["rectification"], prep["grid"]
     if given is not None:
@@ -414,12 +416,14 @@ def kept_capture(reports: dict[str, dict], config: FitConfig) -> tuple[str, str]
 
 def write_capture(cap: Capture, out_dir: Path) -> None:
     """Write a capture's outputs into ``out_dir`` as one result set, report.json last
-    (:func:`weavecap.io.write_result_set`). A rejected photo gets only report.json; an
-    earlier run's other outputs are removed."""
+    (:func:`weavecap.io.write_result_set`). A rejected photo gets report.json and, where
+    preparation refused it, diagnosis.png; an earlier run's other outputs are removed."""
     from .io import atomic_write_text, write_result_set
     from .photo import save_png
 
     files = {}
+    if cap.fabric is None and "diagnosis.png" in cap.images:  # a rejected photo: what the grid search saw
+        files["diagnosis.png"] = lambda path: save_png(path, cap.images["diagnosis.png"])
     if cap.fabric is not None:  # texture paths relative to where params.json ends up, not the staging
         files["params.json"] = lambda path: atomic_write_text(path, wparams.dumps(cap.fabric, base=out_dir.resolve()))
         for name, image in cap.images.items():

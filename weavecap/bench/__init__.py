@@ -3,5 +3,7 @@ imports nothing from here.
 
 - :mod:`.model` — the forward model's speed and memory, cold and warm (``--model``);
 - :mod:`.fit` — the fit bench: photos with known truth captured at each preset and scored (``--fit``);
-- :mod:`.heightfield_photos` — the fit bench's independent photos, made without the forward model.
+- :mod:`.heightfield_photos` — the fit bench's independent photos, made without the forward model;
+- :mod:`.real` — the real-photo development bench (``--fit --set real``): photos of real fabrics
+  scored against their labels, DEV and HELD-OUT apart.
 """

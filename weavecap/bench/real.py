@@ -1,4 +1,4 @@
-"""The real-photo development bench (``weavecap bench --fit --set real``).
+"""The real-photo development bench (``weavecap bench --fit --set real [--stage prepare]``).
 
 Photos of real fabrics that the project never made, read in place from ``../shared/realdata``
 (never copied): ``fabricnet/`` (handheld-microscope photos, labelled with the weave family,
@@ -59,6 +59,22 @@ SUB_NYQUIST = frozenset({"fabricbtdf_twill1_R.png", "fabricbtdf_twill1_T.png",
 FITTED_TARGET_SETS = ("fabricnet", "kth_tips2a", "plaids", "easy")
 
 FAMILIES = ("plain", "twill", "satin")
+
+
+def find_realdata(given: Path | None = None) -> Path | None:
+    """The real photos' folder: ``given``, else ``$WEAVECAP_SHARED/realdata``, else
+    ``shared/realdata`` beside this checkout (``../shared`` from the repository), else beside
+    the working folder; None where none holds ``fabricnet/labels.csv``."""
+    import os
+
+    here = Path(__file__).resolve().parents[2]
+    env = os.environ.get("WEAVECAP_SHARED")
+    for cand in ([given] if given is not None else
+                 [Path(env) / "realdata" if env else None, here.parent / "shared" / "realdata",
+                  Path.cwd().parent / "shared" / "realdata"]):
+        if cand is not None and (cand / "fabricnet" / "labels.csv").is_file():
+            return cand
+    return None
 
 
 # ----------------------------------------------------------------------------- scoring
@@ -127,7 +143,7 @@ def same_weave(a: np.ndarray, b: np.ndarray) -> bool:
     """Whether two fitted patterns are the same weave seen in two photos: equal up to a cyclic
     shift (:func:`weavecap.estimate.weave_name.equal_up_to_shift`) after turning one photo by
     a multiple of 90° (the views of one fabric may hold it either way up)."""
-    from .estimate.weave_name import equal_up_to_shift
+    from ..estimate.weave_name import equal_up_to_shift
 
     return any(equal_up_to_shift(a, t) for t in _quarter_turns(b))
 
@@ -221,7 +237,7 @@ def photos(realdata: Path) -> list[RealPhoto]:
 
 def _fit_row(photo: RealPhoto, out_dir: Path, quality: str) -> dict:
     """Capture one photo end to end (``weavecap fit --quality``), write its outputs."""
-    from .pipeline import CaptureOptions, capture, write_capture
+    from ..pipeline import CaptureOptions, capture, write_capture
 
     cap = capture(photo.path, CaptureOptions(quality=quality))
     write_capture(cap, out_dir)
@@ -238,8 +254,8 @@ def _fit_row(photo: RealPhoto, out_dir: Path, quality: str) -> dict:
 
 def _prepare_row(photo: RealPhoto, out_dir: Path) -> dict:
     """Only prepare one photo (§4); write grid.png, or diagnosis.png when it is rejected."""
-    from .photo import load_photo, save_png
-    from .prepare import Rejected, prepare_photo
+    from ..photo import load_photo, save_png
+    from ..prepare import Rejected, prepare_photo
 
     t = time.perf_counter()
     rgb = load_photo(photo.path).rgb
@@ -247,12 +263,13 @@ def _prepare_row(photo: RealPhoto, out_dir: Path) -> dict:
     seconds = time.perf_counter() - t
     out_dir.mkdir(parents=True, exist_ok=True)
     if isinstance(res, Rejected):
+        save_png(out_dir / "diagnosis.png", res.diagnosis(rgb))
         return {"status": "rejected", "code": res.code, "reason": res.reason, "weave": None, "pattern": None,
                 "pitch_px": None, "yarns": None, "seconds": round(seconds, 3)}
     save_png(out_dir / "grid.png", res.grid_overlay())
     return {"status": "ok", "code": None, "reason": None, "weave": None, "pattern": None,
             "pitch_px": [round(float(v), 4) for v in res.grid.pitch_px], "yarns": list(res.grid.yarns),
-            "seconds": round(seconds, 3)}
+            "colour_repeat": list(res.colour_repeat.yarns), "seconds": round(seconds, 3)}
 
 
 def score(photo: RealPhoto, raw: dict) -> dict:
@@ -274,7 +291,8 @@ def run(realdata: Path, out: Path, *, stage: str = "fit", quality: str = "normal
     """Capture (or, ``stage="prepare"``, only prepare) every bench photo, one row each.
 
     Each photo's outputs go to ``out/fits/<set>/<stem>/`` (report.json, compare.png, grid.png,
-    ...); each row is appended to ``out/rows.jsonl`` as it is done, and a photo already there
+    diagnosis.png for a rejected photo; only grid.png or diagnosis.png at ``stage="prepare"``);
+    each row is appended to ``out/rows.jsonl`` as it is done, and a photo already there
     (same file, stage and quality) is not captured again, so an interrupted run resumes. A
     photo of ``images/`` that is also in ``fabricnet/`` (the same bytes) is captured once.
     """
@@ -400,19 +418,19 @@ def photo_table(rows: list[dict]) -> str:
 
 def write(rows: list[dict], out: Path) -> None:
     """``out/real.jsonl``, ``out/real.csv`` and ``out/real.md`` (the summary and the photo table)."""
-    from .io import atomic_write_text
+    from ..io import atomic_write_text
 
     atomic_write_text(out / "real.jsonl", "".join(json.dumps(r) + "\n" for r in rows))
-    cols = [k for k in rows[0] if k != "pattern"] if rows else []
+    cols = [k for k in dict.fromkeys(k for r in rows for k in r) if k != "pattern"]
     text = io.StringIO()
     writer = csv.writer(text, lineterminator="\n")
     writer.writerow(cols)
     for r in rows:
-        writer.writerow(["" if r[k] is None else json.dumps(r[k]) if isinstance(r[k], (dict, list)) else r[k]
+        writer.writerow(["" if r.get(k) is None else json.dumps(r[k]) if isinstance(r[k], (dict, list)) else r[k]
                          for k in cols])
     atomic_write_text(out / "real.csv", text.getvalue())
     atomic_write_text(out / "real.md", summary_table(rows) + "\n\n" + photo_table(rows) + "\n")
 
 
-__all__ = ["RealPhoto", "photos", "run", "score", "summary", "summary_table", "photo_table", "write",
+__all__ = ["RealPhoto", "find_realdata", "photos", "run", "score", "summary", "summary_table", "photo_table", "write",
            "weave_family", "label_family", "density_ratio", "density_ratio_error", "same_weave", "views_agree"]
