@@ -529,8 +529,8 @@ def _prepare(rgb: np.ndarray, config: PrepareConfig, *, repeat: tuple[int, int] 
     if any(p is None for p in pitches) or not (all(periodic) or woven_lattice):
         score = 0.0 if lattice is None else lattice.score
         reject = Rejected(f"no regular yarn grid: the yarn spacing is not periodic (periodicity {min(strengths):.2f} "
-                          f"across the yarns, at least {config.min_grid_strength} needed; the photo matches itself "
-                          f"on a lattice with score {score:.2f}, at least {config.lattice_woven_score} needed): "
+                          f"across the yarns, at least {config.min_grid_strength} needed; no lattice of the photo "
+                          f"holds the other yarns: its fit scores {score:.3f}, at least {config.lattice_woven_score}): "
                           "this does not look like a woven fabric (knit, felt, straw, paper, noise?), or its "
                           "yarns are not sharp", "no_grid", checks, evidence)
     else:
