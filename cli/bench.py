@@ -19,17 +19,25 @@ from .report import Reporter
 @click.option("--render/--no-render", "do_render", default=None,
               help="The output renderers (weavecap render): the reference against Mitsuba's path + diffuse on the "
                    "towel and the fixture meshes, cold and warm, memory; the flat swatch against synth.")
-@click.option("--set", "sets", type=click.Choice(["both", "own", "independent"]), default="both", show_default=True,
+@click.option("--set", "sets", type=click.Choice(["both", "own", "independent", "real"]), default="both",
+              show_default=True,
               help="Fit bench photos: the forward model's own renders, the independent generator's "
                    "(weavecap.bench.heightfield_photos: height-field yarns, other shading, exposure and white balance off), "
-                   "or both.")
+                   "both, or the real photos of ../shared/realdata (scored against their labels, DEV and HELD-OUT "
+                   "fabrics apart).")
+@click.option("--stage", type=click.Choice(["fit", "prepare"]), default="fit", show_default=True,
+              help="With --set real: capture each photo end to end, or only prepare it (seconds a photo: the "
+                   "grid, pitch and rejections, to iterate on preparation's rules).")
+@click.option("--realdata", type=click.Path(file_okay=False, path_type=Path),
+              help="With --set real: the real photos' folder (default: $WEAVECAP_SHARED/realdata, or "
+                   "../shared/realdata beside the checkout).")
 @click.option("--preset", "presets", type=click.Choice(["draft", "normal", "high"]), multiple=True,
               help="Quality presets to fit at (repeatable; default: all three, --quick: draft and normal).")
 @click.option("--light", type=click.Choice(["auto", "best"]), default="auto", show_default=True,
               help="The fit bench's --light: auto, or best (three captures a photo).")
 @click.option("-o", "--output", "out", type=click.Path(file_okay=False, path_type=Path), default=Path("bench-out"),
               show_default=True, help="Folder for the photos, results.json, render.json and the speed-against-error plot.")
-def bench(quick, do_model, do_fit, do_render, sets, presets, light, out):
+def bench(quick, do_model, do_fit, do_render, sets, stage, realdata, presets, light, out):
     """Measure speed and accuracy on this machine.
 
     Sections: --model (the forward model), --fit (the fit bench), --render (the output
@@ -50,6 +58,16 @@ def bench(quick, do_model, do_fit, do_render, sets, presets, light, out):
     set at all presets takes about 15 minutes on a 2-core machine, the independent set at
     normal about as long.
 
+    Real photos (--set real, at the first --preset, default normal): FabricNET, KTH-TIPS2-a,
+    two yarn-dyed checks, the easy, hard and negative photos of ../shared/realdata, read in
+    place; per photo the status or rejection, the weave and its family against the label,
+    the thread-density ratio against the label's, the fidelity figures and seconds; per
+    fabric whether its views agree; the summary for the DEV fabrics (rules are decided on),
+    the HELD-OUT ones and all. Writes OUT/real/real.md, real.jsonl, real.csv and each photo's
+    outputs under OUT/real/fits/; an interrupted run resumes (OUT/real/rows.jsonl). Skipped,
+    with a message, where the folder is absent. About 1 to 3 minutes a photo at normal on a
+    busy 2-core machine; --stage prepare about a second.
+
     Render: each renderer in a fresh process with an empty kernel cache, side by side on the
     same mesh, camera, lights, size (1280x720), samples (64 spp) and depth (8); the ratio is
     the reference's time over Mitsuba's path + diffuse. Writes OUT/render.json. About 15
@@ -62,6 +80,8 @@ def bench(quick, do_model, do_fit, do_render, sets, presets, light, out):
       weavecap bench --no-fit
       weavecap bench --fit --set independent --preset normal
       weavecap bench --fit --set independent --preset normal --light best
+      weavecap bench --fit --set real --stage prepare -o bench-out/
+      weavecap bench --fit --set real --preset normal -o bench-out/
       weavecap bench -o bench-out/ > performance.md
     """
     from weavecap.io import atomic_write_text
@@ -79,7 +99,25 @@ def bench(quick, do_model, do_fit, do_render, sets, presets, light, out):
             results.append(run_cold(case))
         click.echo(table(results))
         click.echo("")
-    if "fit" in run:
+    if "fit" in run and sets == "real":
+        from weavecap.bench import real
+
+        folder = real.find_realdata(realdata)
+        if folder is None and realdata is not None:
+            from weavecap.errors import InputError
+
+            raise InputError(f"{realdata}: holds no fabricnet/labels.csv; give --realdata the realdata folder of "
+                             "../shared")
+        if folder is None:
+            say("the real photos were not found (give --realdata, or set WEAVECAP_SHARED): the real-photo bench "
+                "is skipped")
+        else:
+            rows = real.run(folder, out / "real", stage=stage, quality=(presets or ("normal",))[0], progress=say)
+            real.write(rows, out / "real")
+            click.echo(f"real photos ({stage}):\n{real.summary_table(rows)}\n")
+            click.echo(f"(per photo: {out / 'real' / 'real.md'}; {out / 'real' / 'real.jsonl'}; "
+                       f"outputs: {out / 'real' / 'fits'})", err=True)
+    elif "fit" in run:
         from weavecap.bench import fit as fit_bench
 
         presets = presets or (("draft", "normal") if quick else ("draft", "normal", "high"))

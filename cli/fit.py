@@ -58,8 +58,9 @@ def fit(photos, out, quality, light, budget_s, jobs, scheduler, start_from, patt
     photo over several repeats | the fit over the same area | the difference, the median
     repeat beside them), rectified.png, grid.png (check the yarn grid by eye) and loss.png.
 
-    A photo that is not a resolvable woven fabric gets a report.json saying why and no
-    params.json. A batch goes on past bad photos, writes OUT/summary.jsonl one line per photo
+    A photo that is not a resolvable woven fabric gets a report.json saying why, a
+    diagnosis.png (the photo as the grid search saw it, its spectrum, the projections along the
+    yarns and the reason: what to reshoot) and no params.json. A batch goes on past bad photos, writes OUT/summary.jsonl one line per photo
     as each finishes, and exits with the worst status. Run it again to resume: finished photos
     are skipped (unless --force); results are never overwritten without --force. With
     --scheduler the photos are fitted on a Dask cluster (the same outputs and summary lines;

@@ -59,7 +59,8 @@ def prepare(photo: Path, out_dir: Path, pattern_file: Path | None, as_json: bool
     if record["status"] == "rejected":
         if verbose:
             click.echo(json.dumps(record["checks"], indent=1), err=True)
-        raise PhotoError(f"{photo}: rejected ({record['code']}): {record['reason']}; nothing was written")
+        raise PhotoError(f"{photo}: rejected ({record['code']}): {record['reason']}; "
+                         f"what the grid search saw: {out_dir / 'diagnosis.png'}")
     rect, g = record["rectification"], record["grid"]
     tell.say(f"turned {rect['rotation_deg']:+.2f}°, pitch {g['pitch_px'][0]:.2f} × {g['pitch_px'][1]:.2f} px, "
              f"repeat {g['yarns'][0]} wefts × {g['yarns'][1]} warps "

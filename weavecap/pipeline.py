@@ -25,7 +25,7 @@ from . import report as reports
 from . import stages
 from .stages import CaptureOptions
 
-OUTPUT_FILES = ("params.json", "report.json", "compare.png", "rectified.png", "grid.png", "loss.png")
+OUTPUT_FILES = ("params.json", "report.json", "compare.png", "rectified.png", "grid.png", "loss.png", "diagnosis.png")
 
 
 @dataclass
@@ -110,7 +110,7 @@ def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), 
     prepared = clock("prepare", stages.prepare, loaded, options)
     if isinstance(prepared, stages.Rejection):
         return Capture(report=reports.rejected(photo_path, options, prepared, {**clock.seconds, "total": clock.total()},
-                                               loaded=loaded))
+                                               loaded=loaded), images={"diagnosis.png": prepared.diagnosis})
     grid = clock("cells", stages.cells, prepared)
 
     def under(light: str) -> stages.Captured:
@@ -181,12 +181,14 @@ def _enlarged(image: np.ndarray, min_height: int = 256) -> np.ndarray:
 
 def write_capture(cap: Capture, out_dir: Path) -> None:
     """Write a capture's outputs into ``out_dir`` as one result set, report.json last
-    (:func:`weavecap.io.write_result_set`). A rejected photo gets only report.json; an
-    earlier run's other outputs are removed."""
+    (:func:`weavecap.io.write_result_set`). A rejected photo gets report.json and, where
+    preparation refused it, diagnosis.png; an earlier run's other outputs are removed."""
     from .io import atomic_write_text, write_result_set
     from .photo import save_png
 
     files = {}
+    if cap.fabric is None and cap.images.get("diagnosis.png") is not None:  # what the grid search saw
+        files["diagnosis.png"] = lambda path: save_png(path, cap.images["diagnosis.png"])
     if cap.fabric is not None:  # texture paths relative to where params.json ends up, not the staging
         files["params.json"] = lambda path: atomic_write_text(path, wparams.dumps(cap.fabric, base=out_dir.resolve()))
         for name, image in cap.images.items():

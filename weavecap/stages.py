@@ -85,12 +85,15 @@ class Rejection:
     reason, code : what a user reads, and the machine's word for it
     input : what is known of the file (report.json's ``input``: its hash, even when unreadable)
     checks : preparation's checks that rejected it (report.json's ``checks``), or None
+    diagnosis : (H, W, 3) linear RGB, what preparation's grid search saw (diagnosis.png,
+        :meth:`weavecap.prepare.Rejected.diagnosis`), or None
     """
 
     reason: str
     code: str
     input: dict = field(default_factory=dict)
     checks: dict | None = None
+    diagnosis: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -131,7 +134,8 @@ def prepare(loaded: Loaded, options: CaptureOptions) -> Prepared | Rejection:
     given = options.pattern if options.pattern is not None else options.start_from
     prepared = prepare_photo(loaded.photo.rgb, repeat=None if given is None else given.shape)
     if isinstance(prepared, Rejected):
-        return Rejection(prepared.reason, prepared.code, checks=prepared.to_json()["checks"])
+        return Rejection(prepared.reason, prepared.code, checks=prepared.to_json()["checks"],
+                         diagnosis=prepared.diagnosis(loaded.photo.rgb))
     return prepared
 
 

@@ -197,3 +197,17 @@ def test_an_interrupted_batch_resumes_where_it_stopped(batch, tmp_path, monkeypa
     assert [json.loads(x)["photo"] for x in (work / "summary.jsonl").read_text().splitlines()] == \
         [str(p) for p in todo]
     assert json.loads((work / "c_corrupt" / "report.json").read_text())["status"] == "rejected"
+
+
+def test_a_photo_preparation_refuses_gets_its_diagnosis_picture(tmp_path):
+    """A rejected photo's folder holds report.json (why) and diagnosis.png (what the grid search
+    saw: the photo, its spectrum, the projections, the reason), no params.json."""
+    from weavecap.photo import load_photo, save_png
+
+    save_png(tmp_path / "noise.png", np.random.default_rng(0).uniform(0, 1, (200, 200, 3)).astype(np.float32))
+    result = run(tmp_path / "noise.png", "-o", tmp_path / "out", "--quality", "draft")
+    assert result.exit_code == 3 and "Traceback" not in result.output
+    report = json.loads((tmp_path / "out" / "report.json").read_text())
+    assert report["status"] == "rejected" and report["reason"]
+    assert load_photo(tmp_path / "out" / "diagnosis.png").width >= 900
+    assert not (tmp_path / "out" / "params.json").exists()

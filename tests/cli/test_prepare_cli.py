@@ -12,7 +12,7 @@ import pytest
 from click.testing import CliRunner
 
 from weavecap.cli.main import cli
-from weavecap.photo import save_png
+from weavecap.photo import load_photo, save_png
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "prepare"))
 from synthetic import render  # noqa: E402
@@ -95,17 +95,21 @@ def test_refuses_to_overwrite_without_force(weave_png, tmp_path):
     assert _run(weave_png, "-o", tmp_path, "-q", "--force").exit_code == 0
 
 
-def test_rejection_exits_3_and_keeps_what_was_there(tmp_path):
+def test_rejection_exits_3_with_a_diagnosis_in_place_of_the_old_set(tmp_path):
     noise = np.random.default_rng(0).uniform(0, 1, (200, 200, 3)).astype(np.float32)
     save_png(tmp_path / "noise.png", noise)
     out = tmp_path / "out"
     out.mkdir()
     (out / "prepare.json").write_text("{}")
+    (out / "rectified.png").write_bytes(b"an earlier run's")
     res = _run(tmp_path / "noise.png", "-o", out, "--force")
     assert res.exit_code == 3
     assert "rejected" in res.output and "noise.png" in res.output and "Traceback" not in res.output
-    assert (out / "prepare.json").read_text() == "{}"
-    assert not (out / "rectified.png").exists()
+    assert "diagnosis.png" in res.output
+    record = json.loads((out / "prepare.json").read_text())
+    assert record["status"] == "rejected" and record["reason"] and record["code"] in ("no_grid", "no_texture")
+    assert load_photo(out / "diagnosis.png").width >= 900  # the photo, its spectrum, the projections
+    assert not (out / "rectified.png").exists()  # the earlier set is gone, not mixed with this one
 
 
 def test_missing_and_unreadable_photos(tmp_path):

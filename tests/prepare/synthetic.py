@@ -76,13 +76,16 @@ def render(pattern: str | np.ndarray = "twill_2_1", *, size: tuple[int, int] = (
            warp_rgb=(0.55, 0.35, 0.25), weft_rgb=(0.35, 0.45, 0.6), background=0.03,
            angle_deg: float = 0.0, pitch_deg: float = 0.0, yaw_deg: float = 0.0,
            noise: float = 0.0, blur: float = 0.0, jpeg: int | None = None,
-           vignette: float = 0.0, seed: int = 0, supersample: int = 2) -> tuple[np.ndarray, Truth]:
+           vignette: float = 0.0, seed: int = 0, supersample: int = 2, warp_stripes=None,
+           weft_stripes=None) -> tuple[np.ndarray, Truth]:
     """Render a linear float32 H×W×3 photo of a weave and its ground truth.
 
     ``pitch_px`` is (warp pitch, weft pitch) in photo pixels at the photo centre;
     ``yarn_width`` the yarn width as a fraction of the pitch; ``noise`` the σ of Gaussian noise
     in linear units; ``blur`` a Gaussian σ in px; ``jpeg`` a JPEG quality; ``vignette`` the
-    relative fall-off of brightness at the corners.
+    relative fall-off of brightness at the corners. ``warp_stripes`` / ``weft_stripes``: a
+    sequence of RGB colours given to successive warps (wefts) in turn, a yarn-dyed stripe or
+    check (instead of ``warp_rgb`` / ``weft_rgb``).
     """
     pat = PATTERNS[pattern] if isinstance(pattern, str) else np.asarray(pattern)
     px, py = (pitch_px, pitch_px) if np.isscalar(pitch_px) else pitch_px
@@ -119,7 +122,8 @@ def render(pattern: str | np.ndarray = "twill_2_1", *, size: tuple[int, int] = (
     top_weft = np.where(weft_over, weft_i, 0)
     under_warp = np.where(weft_over & (weft_p == 0), 0.45 * warp_i, 0)
     under_weft = np.where(~weft_over & (warp_p == 0), 0.45 * weft_i, 0)
-    wa, we = np.asarray(warp_rgb, float), np.asarray(weft_rgb, float)
+    wa = np.asarray(warp_rgb, float) if warp_stripes is None else np.asarray(warp_stripes, float)[j % len(warp_stripes)]
+    we = np.asarray(weft_rgb, float) if weft_stripes is None else np.asarray(weft_stripes, float)[i % len(weft_stripes)]
     img = ((top_warp + under_warp)[..., None] * wa + (top_weft + under_weft)[..., None] * we)
     img = np.maximum(img, background)
     img = cv2.resize(img.astype(np.float32), (w, h), interpolation=cv2.INTER_AREA)

@@ -131,8 +131,9 @@ def test_satin_with_hidden_weft_boundaries_gets_its_weft_pitch_from_the_lattice(
     warp, weft = (p / r.rectification.scale for p in r.grid.pitch_px)
     assert abs(warp / 11 - 1) < 0.02 and abs(weft / 6 - 1) < 0.02
     assert tuple(r.grid.yarns) == (5, 5)
-    # without the lattice the same photo has no grid
-    assert isinstance(prepare_photo(img, PrepareConfig(lattice_min_known_strength=1.01)), Rejected)
+    # without the lattices (the spectral one, and the autocorrelation's) the same photo has no grid
+    assert isinstance(prepare_photo(img, PrepareConfig(lattice_min_known_strength=1.01, lattice_woven_score=1.01)),
+                      Rejected)
 
 
 def test_lattice_pitch_of_a_rib_counts_its_hidden_yarns_from_the_crossings():

@@ -32,6 +32,13 @@ class PrepareConfig:
     # --- illumination ------------------------------------------------------------------------
     #: σ of the low-pass that estimates the lighting, in yarn pitches
     illumination_sigma_pitches: float = 4.0
+    #: a photo whose grid is not found is prepared again ``colour_blind``: each colour channel
+    #: divided by its own low-pass of σ ``colour_sigma_pitches`` texture periods
+    #: (illumination.colour_normalised) before the angles, projections and cells, and the
+    #: weave's repeat found from the direction of the cells' edges (period.orientation_features):
+    #: a yarn-dyed stripe or check, a colour block no longer hides the grid
+    colour_blind: bool = False
+    colour_sigma_pitches: float = 1.5
 
     # --- rectification (§4.1) ----------------------------------------------------------------
     #: Radon: pitch and disc diameter of the coarse angle search, and its angle step (degrees)
@@ -128,10 +135,15 @@ class PrepareConfig:
     lattice_min_known_strength: float = 0.4
     lattice_min_share: float = 0.85
     lattice_max_px: int = 512
+    #: the autocorrelation's lattice (prepare.lattice): the fit score from which it gives an
+    #: axis without a periodic projection its pitch, and overrules a projection finer than its cell
+    lattice_min_score: float = 0.8
+    #: most yarns a lattice basis vector spans along an axis (a reduced basis of a satin of up
+    #: to 8 ends spans at most 3)
+    lattice_max_multiple: int = 4
+    #: a photo whose projections are not both periodic is still a woven grid when its
+    #: autocorrelation fits a lattice this well (prepare.lattice.fit_lattice)
+    lattice_woven_score: float = 0.35
     lattice_max_yarns: int = 12
-    #: smallest share of the image's structure (std) its projections keep along each axis
-    min_grid_contrast: float = 0.08
-    #: largest departure from 90° of the two yarn families (degrees)
-    max_skew_deg: float = 8.0
     #: fewest yarns along each axis of the photo
     min_yarns_in_photo: int = 4

@@ -59,3 +59,27 @@ def flatten_illumination(image: np.ndarray, *, sigma_px: float) -> tuple[np.ndar
     gain = (field / float(np.mean(field))).astype(np.float32)
     flat = image / (gain[..., None] if image.ndim == 3 else gain)
     return flat.astype(np.float32), gain
+
+
+def colour_normalised(image: np.ndarray, *, sigma_px: float) -> np.ndarray:
+    """Each channel of a linear photo divided by its own low-pass (:func:`illumination_field`,
+    σ ``sigma_px``, about a yarn pitch): (H, W, C) float32, each channel's mean about 1.
+
+    A yarn-dyed stripe or check, a colour block and the lighting all vary slower than the
+    yarns; divided out channel by channel they leave what every yarn has whatever its colour:
+    its edges, gaps and shading, and its colour relative to its neighbours' (a warp against
+    the weft it crosses). The low-pass keeps nothing of the yarn frequency (its gain there is
+    exp(−2π²σ²/p²), 3·10⁻⁹ at σ = one pitch p).
+    """
+    img = np.asarray(image, np.float32)
+    if img.ndim == 2:
+        img = img[..., None]
+    return np.stack([img[..., c] / illumination_field(img[..., c], sigma_px=sigma_px)
+                     for c in range(img.shape[2])], axis=2)
+
+
+def colour_blind(image: np.ndarray, *, sigma_px: float) -> np.ndarray:
+    """The texture of a linear photo without its colours: the channels of
+    :func:`colour_normalised` averaged, (H, W) float32 of mean about 1 (§4.1's angles and
+    §4.4's projections then find the yarns, not the stripes)."""
+    return colour_normalised(image, sigma_px=sigma_px).mean(axis=2)

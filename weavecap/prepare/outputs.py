@@ -3,7 +3,8 @@ of images a person can check by eye, and ``prepare.json``.
 
 The folder is held for the run (:func:`weavecap.io.folder_lock`), nothing in it is overwritten
 without ``force``, and the files are written as one result set, ``prepare.json`` last
-(:func:`weavecap.io.write_result_set`). A rejected photo writes nothing: what was there stays.
+(:func:`weavecap.io.write_result_set`). A rejected photo's set is ``diagnosis.png`` (what the
+grid search saw) and ``prepare.json`` (why), in place of an earlier set.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from .config import PrepareConfig
 from .pipeline import Rejected, prepare_photo
 
 #: what a prepared photo leaves in its folder, its record last
-OUTPUTS = ("rectified.png", "regularized.png", "grid.png", "prepare.json")
+OUTPUTS = ("rectified.png", "regularized.png", "grid.png", "diagnosis.png", "prepare.json")
 RECORD_FORMAT = "weavecap.prepare/1"
 
 
@@ -39,8 +40,9 @@ def prepare_into(photo: Path, out: Path, *, repeat: tuple[int, int] | None = Non
     Returns
     -------
     dict
-        The record written, ``status`` ``"ok"``; or, the photo rejected and nothing written,
-        its rejection (``status`` ``"rejected"``, ``code``, ``reason``, ``checks``).
+        The record written, ``status`` ``"ok"``; or, the photo rejected, its rejection
+        (``status`` ``"rejected"``, ``code``, ``reason``, ``checks``), written beside
+        ``diagnosis.png`` (:meth:`weavecap.prepare.Rejected.diagnosis`).
 
     Raises
     ------
@@ -64,6 +66,8 @@ def prepare_into(photo: Path, out: Path, *, repeat: tuple[int, int] | None = Non
         photo_info = {"path": str(photo), "sha256": loaded.sha256, "width": loaded.width, "height": loaded.height}
         record = {"format": RECORD_FORMAT, "input": photo_info, **result.to_json()}
         if isinstance(result, Rejected):
+            write_result_set(out, {"diagnosis.png": lambda path: save_png(path, result.diagnosis(loaded.rgb))},
+                             record=(OUTPUTS[-1], json.dumps(record, indent=1) + "\n"), outputs=OUTPUTS)
             return record
         say("writing " + ", ".join(OUTPUTS))
         record["timings_s"]["with_io"] = round(time.perf_counter() - t0, 4)

@@ -209,3 +209,23 @@ def complement_repeats(yarns: list[int | None], dmfs: list[np.ndarray], *, tol: 
                 and 2 in _low_shifts(d_other, tol)[0]:
             out[i] = 4
     return out
+
+
+def orientation_features(cells: np.ndarray, *, sub: int) -> np.ndarray:
+    """The direction of each block's edges, from the cell features of
+    :func:`~weavecap.prepare.grid.cell_features` (whose last ``2·sub²`` entries are the blocks'
+    mean |∂x| and |∂y|): (|∂x| − |∂y|) / (|∂x| + |∂y|) per block, +1 where the edges run along
+    y (a warp on top), −1 along x (a weft on top).
+
+    Which yarn is on top sets it, not the yarns' colours or brightness: a yarn-dyed stripe
+    or check leaves it as it is, so the weave's repeat shows in it where the colours repeat
+    over other numbers of yarns.
+
+    Returns
+    -------
+    (Ny, Nx, sub·sub) float64.
+    """
+    c = np.asarray(cells, np.float64)
+    grads = c[..., -2 * sub * sub:].reshape(c.shape[0], c.shape[1], sub * sub, 2)
+    gx, gy = grads[..., 0], grads[..., 1]
+    return (gx - gy) / np.maximum(gx + gy, 1e-12)

@@ -31,8 +31,11 @@ from ..errors import ParamsError
 from .config import PrepareConfig
 from .grid import (AxisGrid, Grid, axis_pitch, boundaries, cell_features, crossing_pitches, folded_strength, lattice_pitch,
                    lattice_yarns, power_spectrum, projection, refine_pitch, refine_repeat, repeat_along, spectrum_peaks)
-from .illumination import flatten_illumination, luminance
-from .period import cell_repeat, complement_repeats, superposed_dmf
+from .colours import ColourRepeat, colour_repeat
+from .diagnosis import diagnosis_image
+from .illumination import colour_blind, colour_normalised, flatten_illumination, luminance
+from .lattice import Lattice, weave_lattice
+from .period import cell_repeat, complement_repeats, orientation_features, superposed_dmf
 from .rectify import Rectification, rectify
 from .regularize import Regularized, gaussian, regularize
 
@@ -45,30 +48,53 @@ class Rejected:
     ----------
     reason : one sentence for a person: what was found and what to do.
     code : a short machine-readable kind: ``uniform``, ``no_texture``, ``too_fine``,
-        ``not_woven``, ``no_grid``, ``few_yarns``.
+        ``no_grid``, ``few_yarns``.
     details : the measurements behind the decision.
+    evidence : what the grid search saw before it gave up, for :meth:`diagnosis`: any of
+        ``rectified`` (the turned photo), ``profiles`` (the two projections), ``pitches`` and
+        ``strengths`` (per axis, rectified px).
     """
 
     reason: str
     code: str
     details: dict = field(default_factory=dict)
+    evidence: dict = field(default_factory=dict, repr=False, compare=False)
 
     def to_json(self) -> dict:
         return {"status": "rejected", "reason": self.reason, "code": self.code, "checks": _plain(self.details)}
 
+    def diagnosis(self, rgb: np.ndarray) -> np.ndarray:
+        """The picture of what the grid search saw and why it gave up (``diagnosis.png``,
+        linear RGB): :func:`~weavecap.prepare.diagnosis.diagnosis_image` of the photo ``rgb``."""
+        return diagnosis_image(rgb, self.reason, self.evidence)
+
 
 @dataclass(frozen=True)
 class Prepared:
-    """A prepared photo: rectification, regularized repeats and yarn grid.
+    """A prepared photo: rectification, regularized repeats, yarn grid and colour repeat.
+
+    Three periods are kept apart (Wu et al. 2025 §4.3–4.4):
+
+    - the **yarn pitch** ``grid.pitch_px`` = (warp pitch along x, weft pitch along y),
+      rectified px: one yarn, as a yarn counts (a plied yarn is one; two yarns that work as a
+      pair count as one unless the holes between them show, :func:`lattice_checked`);
+    - the **weave repeat** ``grid.yarns`` = (wefts, warps) and ``grid.repeat_px`` =
+      (height, width): the fewest yarns after which the interlacing repeats (the cell DMF);
+    - the **colour repeat** ``colour_repeat.yarns`` = (wefts, warps): the fewest yarns after
+      which the yarns' colours repeat (a stripe's or check's), with one colour per yarn
+      (:class:`~weavecap.prepare.colours.ColourRepeat`).
 
     Attributes
     ----------
     rectification : :class:`~weavecap.prepare.rectify.Rectification` (``image`` is the
-        rectified photo, linear RGB).
+        rectified photo, linear RGB; warps run along y).
     regularized : :class:`~weavecap.prepare.regularize.Regularized`.
-    grid : :class:`~weavecap.prepare.grid.Grid` in rectified pixels.
-    checks : the measurements the rejection tests looked at.
+    grid : :class:`~weavecap.prepare.grid.Grid` in rectified pixels (pitch, yarn boundaries,
+        weave repeat and its origin).
+    checks : the measurements the rejection tests looked at (``lattice``: the
+        autocorrelation's lattice and cell, ``pitch_from``: which measurement gave each pitch).
     timings_s : seconds per stage and ``total``.
+    colour_repeat : the colour repeat on the grid (None only for a value built by hand).
     """
 
     rectification: Rectification
@@ -76,9 +102,11 @@ class Prepared:
     grid: Grid
     checks: dict
     timings_s: dict
+    colour_repeat: ColourRepeat | None = None
 
     def to_json(self) -> dict:
-        """``rectification`` and ``grid`` as in report.schema.json, plus regularization/checks."""
+        """``rectification`` and ``grid`` as in report.schema.json (``grid.colour_repeat``: the
+        colour repeat), plus regularization/checks."""
         r = self.rectification
         h, w = r.image.shape[:2]
         return {
@@ -92,7 +120,8 @@ class Prepared:
                 "skew_deg": round(r.skew_deg, 3),
                 "coarse_pitch_px": round(r.coarse_pitch_px, 3),
             },
-            "grid": self.grid.to_json(),
+            "grid": {**self.grid.to_json(),
+                     "colour_repeat": None if self.colour_repeat is None else self.colour_repeat.to_json()},
             "regularization": self.regularized.to_json(),
             "checks": _plain(self.checks),
             "timings_s": {k: round(v, 4) for k, v in self.timings_s.items()},
@@ -100,12 +129,15 @@ class Prepared:
 
     def exposed(self, exposure: float) -> "Prepared":
         """This photo as if taken at ``exposure`` times less light: the rectified and the
-        regularized images divided by it, the geometry unchanged."""
+        regularized images and the colour repeat's colours divided by it, the geometry unchanged."""
         def scaled(image: np.ndarray) -> np.ndarray:
             return (np.asarray(image, np.float32) / np.float32(exposure)).astype(np.float32)
 
+        cr = self.colour_repeat
         return replace(self, rectification=replace(self.rectification, image=scaled(self.rectification.image)),
-                       regularized=replace(self.regularized, image=scaled(self.regularized.image)))
+                       regularized=replace(self.regularized, image=scaled(self.regularized.image)),
+                       colour_repeat=None if cr is None else replace(cr, weft_colours=cr.weft_colours / exposure,
+                                                                     warp_colours=cr.warp_colours / exposure))
 
     def grid_overlay(self, *, min_side: int = 512) -> np.ndarray:
         """The rectified photo with the yarn grid drawn over it (linear RGB, for grid.png).
@@ -246,7 +278,7 @@ def _light_sigma(pitch_px: float, config: PrepareConfig) -> float:
     return config.illumination_sigma_pitches * max(pitch_px, 2.0) * 2
 
 
-def _projections(rect: Rectification, config: PrepareConfig) -> tuple[np.ndarray, list, list, list, list, tuple]:
+def _projections(rect: Rectification, config: PrepareConfig) -> tuple[np.ndarray, list, list, list, list, tuple, dict]:
     """Flatten the lighting of the rectified photo, smooth it (σ = pitch/16, §4.2) and measure
     the yarn pitch of its integral projections along x and y (§4.4).
 
@@ -257,7 +289,7 @@ def _projections(rect: Rectification, config: PrepareConfig) -> tuple[np.ndarray
 
     Returns
     -------
-    (smooth, pitches, strengths, contrasts, profiles, split): the smoothed grey image and, per
+    (smooth, pitches, strengths, contrasts, profiles, split, notes): the smoothed grey image and, per
     axis (x: warps, then y: wefts), the pitch (px, None when no period), the periodicity of the
     projection at its period (:func:`~weavecap.prepare.grid.folded_strength`), its share of the
     image's structure, and the projection itself; then ((dx, dy), ratio, share), the divisors
@@ -266,8 +298,11 @@ def _projections(rect: Rectification, config: PrepareConfig) -> tuple[np.ndarray
     r_img = rect.image
     rh_, rw_ = r_img.shape[:2]
     p_guess = rect.coarse_pitch_px * rect.scale
-    r_flat, _ = flatten_illumination(luminance(r_img), sigma_px=_light_sigma(p_guess, config))
-    r_flat = r_flat / max(float(r_flat.mean()), 1e-12)
+    if config.colour_blind:
+        r_flat = colour_blind(r_img, sigma_px=config.colour_sigma_pitches * p_guess)
+    else:
+        r_flat, _ = flatten_illumination(luminance(r_img), sigma_px=_light_sigma(p_guess, config))
+        r_flat = r_flat / max(float(r_flat.mean()), 1e-12)
     smooth = gaussian(r_flat, config.gaussian_sigma_pitch * p_guess)
     sd_img = float(smooth.std()) or 1.0
     pitches, strengths, contrasts, profiles = [], [], [], []
@@ -282,6 +317,12 @@ def _projections(rect: Rectification, config: PrepareConfig) -> tuple[np.ndarray
         strengths.append(s)
         contrasts.append(float(prof.std()) / sd_img)
         profiles.append(prof)
+    # the lattice's window and tolerance scale with the yarns the projections found (the
+    # coarse period can be a harmonic of them)
+    found = [p for p in pitches if p is not None]
+    lattice = weave_lattice(r_img, float(np.sqrt(np.prod(found))) if len(found) == 2 else p_guess, min_unit_px=max(config.crossing_min_pitch_px, config.min_pitch_px * rect.scale),
+                            max_side=config.lattice_max_px, max_multiple=config.lattice_max_multiple)
+    pitches, from_lattice = lattice_checked(pitches, strengths, lattice, config)
     split = ((1, 1), 1.0, 0.0)
     if None not in pitches:  # a projection that repeats over several yarns (grid.crossing_pitches)
         split = crossing_pitches(power_spectrum(smooth, max_side=config.lattice_max_px), (pitches[0], pitches[1]),
@@ -289,18 +330,69 @@ def _projections(rect: Rectification, config: PrepareConfig) -> tuple[np.ndarray
                                  min_share=config.crossing_min_share,
                                  min_pitch=max(config.crossing_min_pitch_px, config.min_pitch_px * rect.scale))
         pitches = [p / d for p, d in zip(pitches, split[0])]
-    return smooth, pitches, strengths, contrasts, profiles, split
+    notes = {"pitch_from": from_lattice, "lattice": lattice}
+    return smooth, pitches, strengths, contrasts, profiles, split, notes
+
+
+def lattice_checked(pitches: list, strengths: list, lattice: Lattice | None,
+                    config: PrepareConfig) -> tuple[list, list[str]]:
+    """The projections' pitches checked against the weave's lattice (:mod:`.lattice`), per axis.
+
+    Only an oblique lattice (:attr:`~weavecap.prepare.lattice.Lattice.oblique`: the photo
+    matches itself a yarn across and a yarn along) that shows a woven grid (score ≥
+    ``lattice_woven_score``) is used.
+
+    - a projection that repeats over two cells of the lattice (alternate yarns of two colours,
+      a colour-and-weave effect, the octave rule's doubling of a yarn with a dark centre) is
+      halved: the two then agree on the yarns (three or more cells were, on the DEV photos,
+      a lattice cell too fine, not a projection too coarse);
+    - where the lattice fits well (score ≥ ``lattice_min_score``), a projection that repeats
+      over a whole fraction of a cell takes the cell (a half-yarn harmonic; grouped yarns are
+      then one unless the yarn crossings split them: :func:`~weavecap.prepare.grid.crossing_pitches`).
+
+    An axis without a periodic projection is left to the spectral lattice
+    (:func:`_lattice_pitches`).
+
+    Returns
+    -------
+    (pitches, sources): per axis ``projection``, ``projection/2`` or ``lattice``.
+    """
+    out, sources = list(pitches), ["projection", "projection"]
+    if lattice is None or lattice.score < config.lattice_woven_score or not lattice.oblique:
+        return out, sources
+    for i, (p, s, g) in enumerate(zip(pitches, strengths, lattice.cell)):
+        if g is None or p is None or s < config.min_grid_strength:
+            continue
+        k = p / g
+        if round(k) == 2 and abs(k - 2) <= 0.2:
+            out[i], sources[i] = p / 2, "projection/2"
+        elif (lattice.score >= config.lattice_min_score and round(1 / k) >= 2
+              and abs(1 / k - round(1 / k)) <= 0.1 * round(1 / k)):
+            out[i], sources[i] = g, "lattice"
+    return out, sources
+
+
+def _on_cells(pitch: float | None, cell: float | None) -> bool:
+    """Whether ``pitch`` is a whole number of lattice cells (within a tenth of a cell each)."""
+    if pitch is None or cell is None:
+        return False
+    k = round(pitch / cell)
+    return k >= 1 and abs(pitch / cell - k) <= 0.1 * k
 
 
 def _cells(r_img: np.ndarray, pitch_px: tuple[float, float], origin_px: tuple[float, float], p_guess: float,
            config: PrepareConfig) -> np.ndarray:
     """Features of the yarn-grid cells of the rectified photo's centre crop (at most
-    ``period_max_px``; lighting flattened, Gaussian of §4.2) for the cell DMF of §4.3:
+    ``period_max_px``; lighting flattened, or each channel divided by its own local mean when
+    ``config.colour_blind``; Gaussian of §4.2) for the cell DMF of §4.3:
     :func:`~weavecap.prepare.grid.cell_features`."""
     h, w = r_img.shape[:2]
     y0, x0 = (h - min(h, config.period_max_px)) // 2, (w - min(w, config.period_max_px)) // 2
     crop = _central(r_img, config.period_max_px)
-    flat, _ = flatten_illumination(crop, sigma_px=_light_sigma(p_guess, config))
+    if config.colour_blind:
+        flat = colour_normalised(crop, sigma_px=config.colour_sigma_pitches * p_guess)
+    else:
+        flat, _ = flatten_illumination(crop, sigma_px=_light_sigma(p_guess, config))
     flat = gaussian(flat, config.gaussian_sigma_pitch * p_guess)
     return cell_features(flat, pitch_px, (origin_px[0] - y0, origin_px[1] - x0), sub=config.cell_blocks)
 
@@ -315,6 +407,15 @@ def _central(img: np.ndarray, side: int) -> np.ndarray:
 def prepare_photo(rgb: np.ndarray, config: PrepareConfig = PrepareConfig(), *, repeat: tuple[int, int] | None = None,
                   progress: Callable[[str], None] | None = None) -> Prepared | Rejected:
     """Rectify a weave photo, regularize it and find its yarn grid and minimum repeat (§4).
+
+    A photo whose grid was found from one periodic projection and a lattice that does not fit
+    well (an oblique lattice of score ``lattice_min_score``), the other projection not
+    periodic, is prepared once more colour-blind (``PrepareConfig.colour_blind``): a yarn-dyed
+    stripe or check, or a block of another colour, can hide the yarns' periodicity from the
+    brightness, not from each channel's texture relative to its own local mean. The
+    colour-blind look is kept where its projections are more periodic
+    (``checks["colour_blind"]``). A rejected photo is not looked at again: noise, felt or a
+    knit seen colour-blind can show a chance period.
 
     Parameters
     ----------
@@ -333,16 +434,33 @@ def prepare_photo(rgb: np.ndarray, config: PrepareConfig = PrepareConfig(), *, r
     Returns
     -------
     :class:`Prepared`, or :class:`Rejected` with a reason when the photo is not a resolvable
-    woven fabric (uniform or noise, no periodic yarn grid, yarns under ``min_pitch_px``,
-    yarn families far from perpendicular as in knits, too few yarns).
+    woven fabric (uniform or noise, no periodic yarn grid, yarns under ``min_pitch_px``, too
+    few yarns); its :meth:`Rejected.diagnosis` draws what the grid search saw.
     """
+    def strength(p: Prepared) -> float:  # how periodic the weaker projection is
+        return min(p.checks["grid_strength"])
+
+    first = _prepare(rgb, config, repeat=repeat, progress=progress)
+    if config.colour_blind or isinstance(first, Rejected):
+        return first
+    lattice = first.checks["lattice"] or {}
+    if strength(first) >= config.min_grid_strength or (
+            lattice.get("oblique") and lattice.get("score", 0.0) >= config.lattice_min_score):
+        return first
+    again = _prepare(rgb, replace(config, colour_blind=True), repeat=repeat, progress=progress)
+    return again if isinstance(again, Prepared) and strength(again) > strength(first) else first
+
+
+def _prepare(rgb: np.ndarray, config: PrepareConfig, *, repeat: tuple[int, int] | None,
+             progress: Callable[[str], None] | None) -> Prepared | Rejected:
+    """:func:`prepare_photo` with one look (``config.colour_blind`` or not)."""
     say = progress or (lambda stage: None)
     t_all = time.perf_counter()
     timings: dict[str, float] = {}
+    checks: dict = {"colour_blind": config.colour_blind}
     rgb = np.asarray(rgb, np.float32)
     if rgb.ndim == 2:
         rgb = np.repeat(rgb[..., None], 3, axis=2)
-    checks: dict = {}
 
     # --- is there any texture at all? ------------------------------------------------------
     say("checking")
@@ -372,7 +490,7 @@ def prepare_photo(rgb: np.ndarray, config: PrepareConfig = PrepareConfig(), *, r
     # --- lighting, Gaussian, projections → pitch (§4.4) -------------------------------------
     say("measuring the yarn grid")
     t = time.perf_counter()
-    smooth, pitches, strengths, contrasts, profiles, split = _projections(rect, config)
+    smooth, pitches, strengths, contrasts, profiles, split, notes = _projections(rect, config)
     # the coarse period was a harmonic of the yarns (thin yarns, sharp gaps): the working
     # resolution and the perspective were chosen for yarns that are not there; do it again
     known = [p / rect.scale for p in pitches if p is not None]
@@ -383,49 +501,51 @@ def prepare_photo(rgb: np.ndarray, config: PrepareConfig = PrepareConfig(), *, r
         timings["rectify"] += time.perf_counter() - t_again
         checks.update(skew_deg=rect.skew_deg, radon_contrast=rect.notes["radon"]["contrast"],
                       perspective=rect.perspective)
-        smooth, pitches, strengths, contrasts, profiles, split = _projections(rect, config)
+        smooth, pitches, strengths, contrasts, profiles, split, notes = _projections(rect, config)
     r_img = rect.image
     rh_, rw_ = r_img.shape[:2]
     p_guess = rect.coarse_pitch_px * rect.scale
+    lattice = notes.pop("lattice")
+    checks.update(notes, lattice=None if lattice is None else lattice.to_json())
     checks.update(grid_strength=strengths, grid_contrast=contrasts, pitch_divisors=list(split[0]),
                   crossing_gain=split[1], crossing_share=split[2])
-    if any(p is None for p in pitches):
-        timings["grid"] = time.perf_counter() - t
-        return Rejected("no periodic yarn grid was found along both yarn directions: this does not look like "
-                        "a woven fabric", "no_grid", checks)
+    evidence = {"rectified": r_img, "profiles": profiles, "pitches": tuple(pitches), "strengths": tuple(strengths)}
     # an axis whose projection is flat (floats hide its yarn boundaries) takes its pitch from the
     # lattice of interlacings built from the other axis (the projection's own where the two
     # agree); the superposed DMFs must then show a repeat at whole numbers of those yarns
-    lattice = _lattice_pitches(smooth, pitches, strengths, config)
-    checks.update(lattice_pitch_px=lattice)
-    from_lattice = [lp is not None for lp in lattice]
+    spectral = _lattice_pitches(smooth, pitches, strengths, config) if None not in pitches else [None, None]
+    checks.update(lattice_pitch_px=spectral)
+    from_lattice = [lp is not None for lp in spectral]
     pitches = [p if lp is None or abs(lp / p - 1) <= config.lattice_pitch_tol else lp
-               for p, lp in zip(pitches, lattice)]
-    strengths_ok = [s >= config.min_grid_strength or fl for s, fl in zip(strengths, from_lattice)]
-    px, py = pitches
-    in_px = (px / rect.scale, py / rect.scale)
-    checks.update(pitch_input_px=list(in_px))
-    yarns_photo = (rw_ / px, rh_ / py)
-    checks.update(yarns_in_photo=list(yarns_photo))
-
+               for p, lp in zip(pitches, spectral)]
+    # a woven grid shows as periodic projections along both yarn directions (or one, and the
+    # spectral lattice), or as one periodic projection and a lattice the autocorrelation fits,
+    # on whose cells the other axis's pitch lies (floats, a check's colours, hairy or plied
+    # yarns blur that projection)
+    periodic = [s >= config.min_grid_strength or fl for s, fl in zip(strengths, from_lattice)]
+    woven_lattice = (any(periodic) and lattice is not None and lattice.score >= config.lattice_woven_score
+                     and all(ok or _on_cells(p, c) for ok, p, c in zip(periodic, pitches, lattice.cell)))
     reject = None
-    if rect.skew_deg > config.max_skew_deg:
-        reject = Rejected(f"the two yarn directions are {90 - rect.skew_deg:.0f}° apart, not about 90° (skew "
-                          f"{rect.skew_deg:.1f}° > {config.max_skew_deg}°): this looks knitted or otherwise not woven",
-                          "not_woven", checks)
-    elif not all(strengths_ok) or min(contrasts) < config.min_grid_contrast:
-        reject = Rejected(f"no regular yarn grid: the yarn spacing is not periodic enough (periodicity "
-                          f"{min(strengths):.2f}, at least {config.min_grid_strength} needed; straight-yarn share "
-                          f"{min(contrasts):.2f}, at least {config.min_grid_contrast}): this does not look like a "
-                          "woven fabric (knit, felt, straw, paper, noise?)", "no_grid", checks)
-    elif min(in_px) < config.min_pitch_px:
-        reject = Rejected(f"the yarns are only {min(in_px):.1f} px apart in the photo (at least "
-                          f"{config.min_pitch_px} px needed to resolve them): take a closer or sharper photo",
-                          "too_fine", checks)
-    elif min(yarns_photo) < config.min_yarns_in_photo:
-        reject = Rejected(f"the photo shows only {min(yarns_photo):.1f} yarns across (at least "
-                          f"{config.min_yarns_in_photo} needed): take the photo from further away",
-                          "few_yarns", checks)
+    if any(p is None for p in pitches) or not (all(periodic) or woven_lattice):
+        score = 0.0 if lattice is None else lattice.score
+        reject = Rejected(f"no regular yarn grid: the yarn spacing is not periodic (periodicity {min(strengths):.2f} "
+                          f"across the yarns, at least {config.min_grid_strength} needed; no lattice of the photo "
+                          f"holds the other yarns: its fit scores {score:.3f}, at least {config.lattice_woven_score}): "
+                          "this does not look like a woven fabric (knit, felt, straw, paper, noise?), or its "
+                          "yarns are not sharp", "no_grid", checks, evidence)
+    else:
+        px, py = pitches
+        in_px = (px / rect.scale, py / rect.scale)
+        yarns_photo = (rw_ / px, rh_ / py)
+        checks.update(pitch_input_px=list(in_px), yarns_in_photo=list(yarns_photo))
+        if min(in_px) < config.min_pitch_px:
+            reject = Rejected(f"the yarns are only {min(in_px):.1f} px apart in the photo (at least "
+                              f"{config.min_pitch_px} px needed to resolve them): take a closer or sharper photo",
+                              "too_fine", checks, evidence)
+        elif min(yarns_photo) < config.min_yarns_in_photo:
+            reject = Rejected(f"the photo shows only {min(yarns_photo):.1f} yarns across (at least "
+                              f"{config.min_yarns_in_photo} needed): take the photo from further away",
+                              "few_yarns", checks, evidence)
     if reject is not None:
         timings["grid"] = time.perf_counter() - t
         return reject
@@ -436,6 +556,10 @@ def prepare_photo(rgb: np.ndarray, config: PrepareConfig = PrepareConfig(), *, r
     yb = boundaries(profiles[1], py)
     origin = (float(yb[0]) if len(yb) else 0.0, float(xb[0]) if len(xb) else 0.0)
     cells = _cells(r_img, (px, py), origin, p_guess, config)
+    # a colour-blind look (stripes, checks): the cells would repeat with the colours; the weave's
+    # repeat is found from what the colours do not set, the direction of each block's edges
+    if config.colour_blind:
+        cells = orientation_features(cells, sub=config.cell_blocks)
     crop = _central(smooth, config.period_max_px).astype(np.float64)
     ns, dmfs, depths, sources, cell_ns, cell_dmfs = [], [], [], [], [], []
     for axis, pitch in ((0, py), (1, px)):  # axis 0: shifts along y → wefts
@@ -498,7 +622,7 @@ def prepare_photo(rgb: np.ndarray, config: PrepareConfig = PrepareConfig(), *, r
         timings["grid"] = time.perf_counter() - t
         return Rejected(f"no regular yarn grid: along {unconfirmed[0]} the yarn boundaries do not show, and the "
                         "repeat that the lattice of interlacings implies is not found in the photo: this does not "
-                        "look like a woven fabric, or its yarns are hidden", "no_grid", checks)
+                        "look like a woven fabric, or its yarns are hidden", "no_grid", checks, evidence)
     # the pitch is best known from the repeat, measured over all its multiples
     # (unless the two disagree: then the projection's pitch is kept)
     if shown[0] and abs(rep_h / ny / py - 1) < 0.03:
@@ -527,4 +651,4 @@ def prepare_photo(rgb: np.ndarray, config: PrepareConfig = PrepareConfig(), *, r
     grid = Grid(x=AxisGrid(px, strengths[0], contrasts[0], xb), y=AxisGrid(py, strengths[1], contrasts[1], yb),
                 repeat_px=(ny * py, nx * px), yarns=(ny, nx), repeat_found=(shown[0], shown[1]), origin_px=origin)
     timings["total"] = time.perf_counter() - t_all
-    return Prepared(rect, reg, grid, checks, timings)
+    return Prepared(rect, reg, grid, checks, timings, colour_repeat(r_img, (px, py), origin))

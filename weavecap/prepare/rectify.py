@@ -31,7 +31,7 @@ from scipy.optimize import least_squares
 from skimage.transform import radon
 
 from .config import PrepareConfig
-from .illumination import flatten_illumination, luminance
+from .illumination import colour_blind, flatten_illumination, luminance
 
 
 @dataclass(frozen=True)
@@ -542,13 +542,21 @@ def rectify(rgb: np.ndarray, *, config: PrepareConfig = PrepareConfig(),
     -------
     :class:`Rectification`, or None when the photo has no texture period at all.
     """
-    grey = luminance(rgb)
-    h, w = grey.shape
-    p0 = pitch_px if pitch_px is not None else coarse_pitch(grey, crop_px=config.coarse_crop_px,
+    p0 = pitch_px if pitch_px is not None else coarse_pitch(luminance(rgb), crop_px=config.coarse_crop_px,
                                                            rel_floor=config.coarse_rel_floor,
                                                            noise_floor=config.coarse_noise_floor)
     if p0 is None or not np.isfinite(p0):
         return None
+    if config.colour_blind:  # the yarns' texture without their colours, its period measured again
+        grey = colour_blind(rgb, sigma_px=config.colour_sigma_pitches * p0)
+        p0 = p0 if pitch_px is not None else coarse_pitch(grey, crop_px=config.coarse_crop_px,
+                                                         rel_floor=config.coarse_rel_floor,
+                                                         noise_floor=config.coarse_noise_floor)
+        if p0 is None or not np.isfinite(p0):
+            return None
+    else:
+        grey = luminance(rgb)
+    h, w = grey.shape
     # working image: pitch ≈ work_pitch_px, a centre crop of at most work_max_px
     fw = float(np.clip(config.work_pitch_px / p0, 0.05, 2.0))
     side = config.work_max_px / fw
