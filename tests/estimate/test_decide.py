@@ -1,0 +1,69 @@
+"""The pattern decision's steps (weavecap.estimate.decide) on cell log-odds with known answers."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from weavecap.estimate.cells import CellGrid
+from weavecap.estimate.decide import (DECIDED_NATS, fold, lattice_offset, photo_lattice, same_weave,
+                                      score_patterns)
+from weavecap.estimate.sampling import herringbone, satin, twill
+
+
+def noisy_logits(pattern, lattice, *, strength=2.0, flips=0.0, seed=0, phase=(0, 0)):
+    """Log-odds a classifier might give a lattice of ``pattern`` tiled from ``phase``: ± strength
+    with Gaussian noise, a share ``flips`` of the cells wrong."""
+    rng = np.random.default_rng(seed)
+    reps = (-(-lattice[0] // pattern.shape[0]) + 1, -(-lattice[1] // pattern.shape[1]) + 1)
+    tiled = np.roll(np.tile(pattern, reps), phase, axis=(0, 1))[: lattice[0], : lattice[1]]
+    truth = np.where(rng.random(lattice) < flips, 1 - tiled, tiled)
+    return strength * (2.0 * truth - 1.0) + rng.normal(0, 0.5, lattice)
+
+
+def test_fold_sums_each_cells_log_likelihood_over_the_repeat():
+    rng = np.random.default_rng(3)
+    logits = rng.normal(0, 2, (9, 10))
+    p = twill(2, 1)
+    a1, a0 = fold(logits, p.shape)
+    tiled = np.tile(p, (3, 4))[:9, :10]
+    direct = np.sum(np.where(tiled == 1, -np.logaddexp(0, -logits), -np.logaddexp(0, logits)))
+    assert np.sum(np.where(p == 1, a1, a0)) == pytest.approx(direct)
+
+
+@pytest.mark.parametrize("pattern, lattice", [
+    (twill(2, 1, step=-1), (12, 12)), (1 - satin(5, 2), (15, 15)), (np.array([[1, 0], [0, 1]]), (8, 9)),
+    (herringbone(twill(2, 2), 4), (10, 20)),
+    (np.kron(np.array([[1, 0], [0, 1]]), np.ones((2, 1), int)), (12, 8))])
+def test_a_named_weave_wins_even_with_a_fifth_of_the_cells_wrong(pattern, lattice):
+    logits = noisy_logits(pattern, lattice, flips=0.2, seed=1, phase=(1, 2))
+    ranked = score_patterns(logits)
+    assert same_weave(ranked[0].pattern, pattern), ranked[0].name
+
+
+def test_a_custom_pattern_wins_only_when_the_cells_show_it_clearly():
+    custom = np.array([[1, 1, 0, 1], [0, 1, 0, 0], [1, 0, 1, 0], [0, 0, 1, 1]], dtype=np.uint8)
+    clear = score_patterns(noisy_logits(custom, (16, 16), strength=3.0, seed=2))
+    assert clear[0].family == "custom" and same_weave(clear[0].pattern, custom)
+    # with most cells barely decided the photo cannot pay for sixteen free cells
+    faint = score_patterns(noisy_logits(custom, (8, 8), strength=0.3, flips=0.3, seed=2))
+    assert faint[0].family != "custom"
+
+
+def test_evidence_is_the_gap_to_the_best_different_weave():
+    ranked = score_patterns(noisy_logits(twill(1, 3), (12, 12), strength=3.0, seed=4))
+    best = ranked[0]
+    other = next(c for c in ranked[1:] if not same_weave(c.pattern, best.pattern))
+    assert best.score - other.score > DECIDED_NATS
+    weak = score_patterns(noisy_logits(twill(1, 3), (12, 12), strength=0.05, seed=4))
+    other = next(c for c in weak[1:] if not same_weave(c.pattern, weak[0].pattern))
+    assert weak[0].score - other.score < DECIDED_NATS
+
+
+def test_the_lattice_covers_the_photo_in_whole_cells_at_the_repeats_phase():
+    cells = CellGrid(rows=np.array([30.0, 40.0, 50.0]), cols=np.array([25.0, 37.0, 49.0, 61.0]))
+    lattice = photo_lattice(np.zeros((100, 130)), cells)
+    assert lattice.shape == (10, 10)
+    assert lattice.rows[0] == pytest.approx(0.0) and lattice.cols[0] == pytest.approx(1.0)
+    assert lattice.rows[-1] <= 100 and lattice.cols[-1] <= 130
+    assert lattice_offset(lattice, cells) == (3, 2)
