@@ -19,7 +19,7 @@ import click
                    "towel and the fixture meshes, cold and warm, memory; the flat swatch against synth.")
 @click.option("--set", "sets", type=click.Choice(["both", "own", "independent"]), default="both", show_default=True,
               help="Fit bench photos: the forward model's own renders, the independent generator's "
-                   "(weavecap.heightfield_photos: height-field yarns, other shading, exposure and white balance off), "
+                   "(weavecap.bench.heightfield_photos: height-field yarns, other shading, exposure and white balance off), "
                    "or both.")
 @click.option("--preset", "presets", type=click.Choice(["draft", "normal", "high"]), multiple=True,
               help="Quality presets to fit at (repeatable; default: all three, --quick: draft and normal).")
@@ -69,7 +69,7 @@ def bench(quick, do_model, do_fit, do_render, sets, presets, light, out):
     run = set(named) if named else {k for k, v in chosen.items() if v is None}
     say = lambda m: click.echo(m, err=True)  # noqa: E731
     if "model" in run:
-        from weavecap.bench import CASES, run_cold, table
+        from weavecap.bench.model import CASES, run_cold, table
 
         results = []
         for case in CASES:
@@ -78,7 +78,7 @@ def bench(quick, do_model, do_fit, do_render, sets, presets, light, out):
         click.echo(table(results))
         click.echo("")
     if "fit" in run:
-        from weavecap import fit_bench
+        from weavecap.bench import fit as fit_bench
 
         presets = presets or (("draft", "normal") if quick else ("draft", "normal", "high"))
         photo_sets = fit_bench.SETS if sets == "both" else (sets,)

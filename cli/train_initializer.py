@@ -47,7 +47,7 @@ def train_initializer(work: Path, out_dir: Path | None, geometries: int, per_geo
     from weavecap.estimate.initializer import RECORD_FILE, WEIGHTS_FILE, weights_dir
     import numpy as np
 
-    from weavecap.estimate.training import TrainConfig, generate_data, heldout_errors, load_data, train, write_weights
+    from weavecap.training.initializer import TrainConfig, generate_data, heldout_errors, load_data, train, write_weights
     from weavecap.io import refuse_overwrite
 
     out_dir = out_dir or weights_dir()

@@ -63,7 +63,7 @@ def synthetic_photo(rng: np.random.Generator, *, cell_px: int, max_size: int):
 def visibility(rng: np.random.Generator, fabrics: int) -> dict:
     """Per output key: RMS change of the image (clipped, blurred by σ = pitch / 16 as the test
     photos are), linear RGB, from the bottom to the top of its range."""
-    from weavecap.estimate.training import render_window
+    from weavecap.training.initializer import render_window
     from weavecap.params import FIT_RANGES
 
     out = {k: [] for k in OUTPUT_KEYS}

@@ -1,4 +1,4 @@
-"""The capture end to end on photos the forward model did not make (weavecap.heightfield_photos):
+"""The capture end to end on photos the forward model did not make (weavecap.bench.heightfield_photos):
 known patterns recovered at draft, face and direction included; the fit ends on the photo's
 own yarn colours whatever the exposure and white balance."""
 
@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from weavecap import heightfield_photos as hp
+from weavecap.bench import heightfield_photos as hp
 from weavecap.estimate.weave_name import equal_up_to_shift, weave_name
 from weavecap.pipeline import CaptureOptions, capture
 

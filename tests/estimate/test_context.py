@@ -1,5 +1,5 @@
 """The pattern a repeat's own cells explain best (weavecap.estimate.context), on canvases with
-known truth drawn by the independent generator (weavecap.heightfield_photos, no code shared
+known truth drawn by the independent generator (weavecap.bench.heightfield_photos, no code shared
 with weavecap's forward model)."""
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from weavecap.estimate.context import (MIN_CELLS, cell_looks, context_misfit, co
                                        shifted_misfit)
 from weavecap.estimate.sampling import interlacing
 from weavecap.estimate.weave_name import equal_up_to_shift
-from weavecap.heightfield_photos import CROSS_SECTIONS, PhotoSpec, random_weave, scene_radiance
+from weavecap.bench.heightfield_photos import CROSS_SECTIONS, PhotoSpec, random_weave, scene_radiance
 
 PITCH = 32
 

@@ -4,7 +4,7 @@ A weave's repeat can set its yarns' mean brightness apart: a basket 2/2's pairs,
 weave's columns of floats. The integral projection then repeats over the pairs (over the 6
 warps of a random 3×6), and its period is not the yarn pitch. The lattice of yarn crossings
 (``grid.crossing_pitches``) tells: its fundamental is at the yarn pitch whatever the weave.
-The photos are made by :mod:`weavecap.heightfield_photos`, which shares no code with the
+The photos are made by :mod:`weavecap.bench.heightfield_photos`, which shares no code with the
 forward model; before the crossing test the basket came out 2×2 at twice its pitch and the
 random 3×6 as 3×2 with a warp pitch of 6 warps.
 """
@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from weavecap.heightfield_photos import bench_specs, render_photo, with_camera
+from weavecap.bench.heightfield_photos import bench_specs, render_photo, with_camera
 from weavecap.photo import srgb_to_linear
 from weavecap.prepare import Prepared, prepare_photo
 from weavecap.prepare.grid import crossing_pitches, power_spectrum

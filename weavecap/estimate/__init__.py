@@ -5,7 +5,8 @@
 - :mod:`.pattern` — §5.1, batched annealing at T = 0 (and the yarn radii it needs);
 - :mod:`.colour` — §5.2, warp, weft and specular colours; CIELAB ΔE;
 - :mod:`.initializer` — §5.3, the VGG-style network, or Table 1 defaults (§7.3);
-- :mod:`.training`, :mod:`.sampling` — its training data and training (``weavecap train-initializer``);
+- :mod:`.sampling` — random weaves and fabrics over Table 1, which its training data are drawn from
+  (:mod:`weavecap.training.initializer`, ``weavecap train-initializer``);
 - :mod:`.weave_name` — the weave's name for people;
 - :mod:`.orientation`, :mod:`.context` — the pattern read off the photo without the model: the
   edge votes per cell, and the pattern its cells' looks explain best (the fit's end stages);

@@ -19,7 +19,7 @@ The true pattern explains them with few terms; a wrong one puts unlike cells in 
 What it cannot see: the face (every cell flipped explains the looks equally, the terms merely
 relabelled; the edge votes tell it, :func:`weavecap.estimate.orientation.vote_residual`); and
 it needs many more cells than its 10 free terms. On the final targets of the independent
-bench's 18 photos (:mod:`weavecap.heightfield_photos`; Session 20, docs/capture.md) the best
+bench's 18 photos (:mod:`weavecap.bench.heightfield_photos`; Session 20, docs/capture.md) the best
 pattern it found was the truth, up to the face, on 15; on the random 8×8 (64 cells, its two
 families one colour) the truth left the looks 2.1 times less unexplained than the fitted
 pattern, 15 cells off. On the 3×3 twills (9 cells) and the weft-faced satin 5 (25) it found

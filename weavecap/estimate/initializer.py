@@ -9,7 +9,7 @@ pooling) turn it into features; two fully connected LeakyReLU layers and a linea
 one value per output, and a sigmoid scaled to each parameter's Table 1 range
 (:data:`weavecap.params.FIT_RANGES`) maps it into that range (§5.3). No pretrained VGG can be
 downloaded here, so the whole network is trained from scratch on the forward model's renders
-(:mod:`weavecap.estimate.training`; ``weavecap train-initializer``).
+(:mod:`weavecap.training.initializer`; ``weavecap train-initializer``).
 
 Without weights, or for inputs it never saw, :func:`default_values` gives the middle of every
 range (§5.3, §7.3: the pre-estimation can be bypassed, at the price of a longer fit).

@@ -14,7 +14,7 @@ over the middle of the side) with that along its left and right borders (|âˆ‚I/â
 positive where the weft is on top (pattern 1), negative for the warp. Shading inside a yarn
 (its highlight, ply grooves, where it dips under the next yarn) does not enter: only the
 borders count. The cells must run from gap to gap (:func:`weavecap.fit.target.gap_phase`).
-On the independent bench photos (:mod:`weavecap.heightfield_photos`) the votes alone give the
+On the independent bench photos (:mod:`weavecap.bench.heightfield_photos`) the votes alone give the
 whole pattern, face and direction included, on 8 of 18 and 93% of the cells of the repeats
 preparation found right; the structure tensor of the cell's centre (the first cue tried)
 gave 1 of 11: a weft dipping under a warp puts strong vertical edges inside its own cell.

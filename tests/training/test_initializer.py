@@ -7,7 +7,7 @@ from click.testing import CliRunner
 
 from weavecap.estimate.initializer import INPUT_PX, N_OUTPUTS, range_arrays
 from weavecap.estimate.sampling import FAMILIES, interlaces, random_fabric, random_pattern
-from weavecap.estimate.training import TrainConfig, generate_data, make_shard
+from weavecap.training.initializer import TrainConfig, generate_data, make_shard
 from weavecap.params import FIT_RANGES
 
 

@@ -25,7 +25,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from .fixtures import path as fixture_path
+from ..fixtures import path as fixture_path
 
 FIXTURE = fixture_path("params", "twill_2_1.json")
 
@@ -89,7 +89,7 @@ def run_cold(case: Case) -> dict:
     """:func:`measure` in a child process with an empty kernel cache."""
     with tempfile.TemporaryDirectory() as cache:
         env = dict(os.environ, DRJIT_CACHE_DIR=cache)
-        proc = subprocess.run([sys.executable, "-m", "weavecap.bench", "--child", case.name],
+        proc = subprocess.run([sys.executable, "-m", "weavecap.bench.model", "--child", case.name],
                               env=env, capture_output=True, text=True, check=False)
     if proc.returncode != 0:
         raise RuntimeError(f"benchmark case {case.name!r} failed:\n{proc.stderr[-2000:]}")
@@ -111,11 +111,11 @@ def table(results: list[dict]) -> str:
 
 
 def main(argv: list[str] | None = None) -> None:
-    """``python -m weavecap.bench --child CASE``: measure one case, print it as JSON (what
+    """``python -m weavecap.bench.model --child CASE``: measure one case, print it as JSON (what
     :func:`run_cold` runs in a fresh process)."""
     argv = sys.argv[1:] if argv is None else argv
     if argv[:1] != ["--child"] or len(argv) != 2:
-        raise SystemExit("usage: python -m weavecap.bench --child CASE (use `weavecap bench`)")
+        raise SystemExit("usage: python -m weavecap.bench.model --child CASE (use `weavecap bench`)")
     case = next(c for c in CASES if c.name == argv[1])
     print(json.dumps(measure(case)))
 

@@ -1,15 +1,15 @@
-"""The fit bench's scoring (weavecap.fit_bench) on fabrics with known errors; no rendering."""
+"""The fit bench's scoring (weavecap.bench.fit) on fabrics with known errors; no rendering."""
 
 from __future__ import annotations
-
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-from weavecap import fit_bench, params
+from weavecap import params
+from weavecap.bench import fit as fit_bench
+from weavecap.fixtures import path as fixture_path
 
-FIXTURES = Path(__file__).resolve().parents[1] / "fixtures" / "params"
+FIXTURES = fixture_path("params")
 
 
 def test_compare_scores_errors_against_what_the_photo_determines():

@@ -1,4 +1,4 @@
-"""The independent photo generator (weavecap/heightfield_photos.py): known truth, its own code."""
+"""The independent photo generator (weavecap/bench/heightfield_photos.py): known truth, its own code."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from weavecap import heightfield_photos as hp
+from weavecap.bench import heightfield_photos as hp
 
 
 def _imports(module) -> set[str]:

@@ -1,4 +1,4 @@
-"""The speed–accuracy bench of ``weavecap fit`` (issues 5 and 11): photos with known truth,
+"""The speed–accuracy bench of ``weavecap fit``: photos with known truth,
 fitted at each quality preset, from two sources.
 
 The bench set is fixed by a seed: fabrics over Table 1 (:mod:`weavecap.estimate.sampling`)
@@ -9,11 +9,11 @@ Each photo is captured end to end (:func:`weavecap.pipeline.capture`) and compar
 truth: the pattern up to a cyclic shift, the re-render's PSNR against the regularized photo,
 the error of every continuous parameter relative to its Table 1 range, plies and fibres — and
 which continuous parameters the photo determines (standard error ≤ 5% of the range at the fit,
-:mod:`weavecap.fit.uncertainty`), the ones issue 5's accuracy goal is about.
+:mod:`weavecap.fit.uncertainty`), the ones the accuracy figures are about.
 
 That set cannot show model mismatch: its photos come from the model that fits them. The
-*independent* set (:func:`make_independent_photos`, issue 11) comes from
-:mod:`weavecap.heightfield_photos`, which shares no code with the forward model: height-field
+*independent* set (:func:`make_independent_photos`) comes from
+:mod:`weavecap.bench.heightfield_photos`, which shares no code with the forward model: height-field
 yarns with their own shading, exposure and white balance off. Its truth is the pattern (face
 and direction included); every photo of both sets is also scored by the fidelity figures of
 :mod:`weavecap.fit.fidelity` (sharpness, each family's ΔE2000, structure correlation) between
@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .params import CONTINUOUS_KEYS, FIT_RANGES, Fabric
+from ..params import CONTINUOUS_KEYS, FIT_RANGES, Fabric
 
 PHOTO_SIDE_PX = 1024
 FAMILIES = ("plain", "twill", "satin5", "satin8", "basket", "random", "twill", "random")
@@ -60,10 +60,10 @@ def make_photos(folder: Path, *, quick: bool, seed: int = 2026) -> list[BenchPho
     """Render the bench set into ``folder`` (JPEG files)."""
     import cv2
 
-    from .estimate.sampling import random_fabric, random_pattern, satin
-    from .model.render import render_numpy
-    from .model.scene import View, build_scene
-    from .photo import linear_to_srgb
+    from ..estimate.sampling import random_fabric, random_pattern, satin
+    from ..model.render import render_numpy
+    from ..model.scene import View, build_scene
+    from ..photo import linear_to_srgb
 
     rng = np.random.default_rng(seed)
     photos = []
@@ -89,9 +89,9 @@ def make_photos(folder: Path, *, quick: bool, seed: int = 2026) -> list[BenchPho
 
 
 def make_independent_photos(folder: Path, *, quick: bool, seed: int = 11) -> list[BenchPhoto]:
-    """Render the independent set (:func:`weavecap.heightfield_photos.bench_specs`) into
+    """Render the independent set (:func:`weavecap.bench.heightfield_photos.bench_specs`) into
     ``folder`` (JPEG at each photo's own quality)."""
-    from .estimate.weave_name import weave_name
+    from ..estimate.weave_name import weave_name
     from .heightfield_photos import bench_specs, write_photo
 
     photos = []
@@ -105,7 +105,7 @@ def make_independent_photos(folder: Path, *, quick: bool, seed: int = 11) -> lis
 def score_pattern(fit: Fabric | None, truth: np.ndarray) -> dict:
     """The independent set's scoring: the pattern up to a cyclic shift (face and direction
     included: a mirrored twill or the other face of a satin is a different pattern)."""
-    from .estimate.weave_name import equal_up_to_shift
+    from ..estimate.weave_name import equal_up_to_shift
 
     if fit is None:
         return {"fitted": False, "pattern_exact": False}
@@ -117,7 +117,7 @@ def compare(fit: Fabric | None, truth: Fabric, determined: dict | None = None) -
     ``determined``: the report's ``fit.parameters`` (which values the photo determines);
     ``within_2se`` is the share of values with a finite standard error whose error is within
     two of it."""
-    from .estimate.weave_name import equal_up_to_shift
+    from ..estimate.weave_name import equal_up_to_shift
 
     if fit is None:
         return {"fitted": False, "pattern_exact": False}
@@ -142,8 +142,8 @@ def run(presets: tuple[str, ...], *, quick: bool, folder: Path | None = None, se
     """Fit every photo of each of ``sets`` at every preset, with ``weavecap fit --light``
     ``light``; one result dict per (photo, preset). ``folder`` keeps the photos (``own/``,
     ``independent/``) and each fit's outputs (``fits/<preset>/<photo>/``, compare.png included)."""
-    from .estimate.weave_name import weave_name
-    from .pipeline import CaptureOptions, capture, write_capture
+    from ..estimate.weave_name import weave_name
+    from ..pipeline import CaptureOptions, capture, write_capture
 
     with tempfile.TemporaryDirectory() as tmp:
         where = folder or Path(tmp)
@@ -176,7 +176,7 @@ def run(presets: tuple[str, ...], *, quick: bool, folder: Path | None = None, se
     return results
 
 
-#: the exposure-invariance check of issue 11: one fabric, photographed as the camera saw it and
+#: the exposure-invariance check: one fabric, photographed as the camera saw it and
 #: 1 stop darker, 1 stop brighter and with a 15% colour cast (gain per channel)
 EXPOSURE_VARIANTS = {"as shot": (0.0, (1.0, 1.0, 1.0)), "1 stop darker": (-1.0, (1.0, 1.0, 1.0)),
                      "1 stop brighter": (1.0, (1.0, 1.0, 1.0)), "15% colour cast": (0.0, (1.15, 1.0, 0.87))}
@@ -185,7 +185,7 @@ EXPOSURE_FABRICS = ("07_satin5_weft", "00_plain")  # one back-lit (gaps show the
 
 def exposure_invariance(preset: str, folder: Path, *, seed: int = 11, exposure: str = "rig",
                         progress=print) -> list[dict]:
-    """Fit each of :data:`EXPOSURE_FABRICS` (from :func:`weavecap.heightfield_photos.bench_specs`)
+    """Fit each of :data:`EXPOSURE_FABRICS` (from :func:`weavecap.bench.heightfield_photos.bench_specs`)
     under every :data:`EXPOSURE_VARIANTS` camera (exposure and white balance relative to a
     neutral one), with ``weavecap fit --exposure`` ``exposure``, and measure how far the fitted
     fabric colours move: per fabric and family, the largest CIEDE2000 between any two variants
@@ -193,10 +193,10 @@ def exposure_invariance(preset: str, folder: Path, *, seed: int = 11, exposure: 
     under a fixed light (:func:`weavecap.fit.fidelity.rendered_family_lab`; ``rendered``, and
     ``rendered_stops`` over the three exposures alone, without the cast), and each variant's
     fitted gain."""
-    from .estimate.colour import linear_to_lab
-    from .fit.fidelity import rendered_family_lab
+    from ..estimate.colour import linear_to_lab
+    from ..fit.fidelity import rendered_family_lab
     from .heightfield_photos import bench_specs, with_camera, write_photo
-    from .pipeline import CaptureOptions, capture
+    from ..pipeline import CaptureOptions, capture
 
     folder.mkdir(parents=True, exist_ok=True)
     specs = {s.name: s for s in bench_specs(seed=seed)}
@@ -343,7 +343,7 @@ def plot(rows: list[dict], path: Path) -> None:
     PSNR) as a PNG; nothing without that set."""
     import cv2
 
-    from .photo import save_png, srgb_to_linear
+    from ..photo import save_png, srgb_to_linear
 
     rows = [r for r in rows if "relative_error" in r]  # the own-render set: errors against the truth
     if not rows:

@@ -1,6 +1,6 @@
-"""Photos of woven fabric with known truth, made WITHOUT weavecap's forward model (issue 11).
+"""Photos of woven fabric with known truth, made WITHOUT weavecap's forward model.
 
-The fit bench of :mod:`weavecap.fit_bench` renders its photos with the model that then fits
+The fit bench of :mod:`weavecap.bench.fit` renders its photos with the model that then fits
 them, so it cannot show model mismatch. This module is a second, independent source: it shares
 deliberately NO code with :mod:`weavecap.model` (no Algorithm 1 geometry, no BYSDF, no Mitsuba,
 no light rig). Its fabric is a height field of yarns evaluated per pixel in numpy:
@@ -23,7 +23,7 @@ no light rig). Its fabric is a height field of yarns evaluated per pixel in nump
 
 Conventions are weavecap's: ``pattern`` is (wefts, warps), 1 = weft over warp; row i is the
 i-th weft from the top of the photo (before the turn), column j the j-th warp from the left;
-colours are linear RGB. :func:`bench_specs` is the done-when set of issue 11 (18 photos);
+colours are linear RGB. :func:`bench_specs` is the fit bench's independent set (18 photos);
 :func:`write_photo` saves one as JPEG.
 """
 
@@ -376,7 +376,7 @@ def render_photo(spec: PhotoSpec, *, seed: int = 0) -> np.ndarray:
     signal dependent (shot noise plus a read-noise floor)."""
     import cv2
 
-    from .photo import linear_to_srgb
+    from ..photo import linear_to_srgb
 
     rng = np.random.default_rng(seed + 7919)
     img = scene_radiance(spec, seed=seed) * (2.0 ** spec.exposure_stops) * np.asarray(spec.white_balance, np.float32)
@@ -414,7 +414,7 @@ def _colour(rng) -> np.ndarray:
 
 
 def bench_specs(*, seed: int = 11, quick: bool = False) -> list[PhotoSpec]:
-    """The independent bench set of issue 11 (18 photos; ``quick``: 4 of them).
+    """The fit bench's independent set (18 photos; ``quick``: 4 of them).
 
     Plain; twills 2/1, 3/1 and 2/2 in both directions; satins 5 and 8, weft- and warp-faced;
     basket 2/2; random weaves 4×4, 6×6 and 8×8; a back-lit plain and a 3×6 random. Warp and

@@ -9,17 +9,13 @@ photo is never exact), then blurred (σ up to 1.2 px, like §4.2's regularizatio
 pixel noise. Data are written in shards (``.npz``) and a shard that exists is not made again,
 so an interrupted run resumes; the last ``heldout_shards`` shards are held out.
 
-Training: Adam on the mean squared error of the outputs in units of their ranges, cosine
-learning-rate decay, batches shuffled by a generator seeded with (seed, epoch); a checkpoint
-after every epoch (``torch.save`` of tensors only, read back with ``weights_only=True``)
-lets an interrupted run resume at the next epoch (a checkpoint of other training settings is
-set aside: training starts over on the same data).
+Training: AdamW on the mean squared error of the outputs in units of their ranges, one-cycle
+learning rate (cosine decay), epochs of shuffled batches with a checkpoint after each
+(:class:`weavecap.training.trainer.Trainer`: an interrupted run resumes at the next epoch).
 """
 
 from __future__ import annotations
 
-import json
-import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Callable
@@ -27,10 +23,11 @@ from typing import Callable
 import cv2
 import numpy as np
 
+from ..estimate.initializer import (CELL_PX, INPUT_CELLS, INPUT_PX, OUTPUT_KEYS, WEIGHTS_FILE, NetConfig,
+                                    build_network, network_input, output_slices, range_arrays, to_vector)
+from ..estimate.sampling import random_fabric, random_pattern
 from ..params import FIT_RANGES
-from .initializer import (CELL_PX, INPUT_CELLS, INPUT_PX, OUTPUT_KEYS, RECORD_FILE, WEIGHTS_FILE, NetConfig,
-                          build_network, network_input, output_slices, range_arrays, to_vector)
-from .sampling import random_fabric, random_pattern
+from . import trainer as skeleton
 
 WINDOW_CELLS = INPUT_CELLS + 2  # rendered window: one spare cell on each side for the grid jitter
 MAX_JITTER_PX = 3
@@ -92,12 +89,10 @@ def make_shard(config: TrainConfig, index: int) -> dict:
     """Render shard ``index``: ``shard_geometries × per_geometry`` examples (fewer in the last).
 
     Returns arrays: ``x`` (N, 4, INPUT_PX, INPUT_PX) float16 network inputs, ``y`` (N, N_OUTPUTS)
-    float32 true values, ``family`` (N,) str, ``shape`` (N, 2) int pattern sizes, ``seconds``
-    the time it took.
+    float32 true values, ``family`` (N,) str, ``shape`` (N, 2) int pattern sizes.
     """
     from ..model.render import render_numpy
 
-    t0 = time.perf_counter()
     rng = np.random.default_rng([config.seed, index])
     xs, ys, fams, shapes = [], [], [], []
     count = min(config.shard_geometries, config.geometries - index * config.shard_geometries)
@@ -129,36 +124,26 @@ def make_shard(config: TrainConfig, index: int) -> dict:
             fams.append(family)
             shapes.append(pattern.shape)
     return {"x": np.stack(xs), "y": np.stack(ys).astype(np.float32), "family": np.array(fams),
-            "shape": np.array(shapes, dtype=np.int32), "seconds": np.float64(time.perf_counter() - t0)}
+            "shape": np.array(shapes, dtype=np.int32)}
+
+
+def shard_paths(work: Path, config: TrainConfig) -> list[Path]:
+    """The data shards of ``config`` under ``work/data``, in order."""
+    return [skeleton.shard_path(work / "data", index) for index in range(config.shards)]
 
 
 def generate_data(work: Path, config: TrainConfig, *, progress: Progress = lambda s: None) -> float:
     """Make the missing shards under ``work/data``; return the seconds all shards took to render
     (those of earlier, interrupted runs included)."""
-    data = work / "data"
-    data.mkdir(parents=True, exist_ok=True)
-    spent = 0.0
-    for index in range(config.shards):
-        path = data / f"shard_{index:04d}.npz"
-        if not path.is_file():
-            shard = make_shard(config, index)
-            tmp = data / f"shard_{index:04d}.tmp.npz"
-            np.savez(tmp, **shard)
-            tmp.replace(path)
-            progress(f"data: shard {index + 1}/{config.shards} ({len(shard['y'])} images, "
-                     f"{float(shard['seconds']):.0f} s)")
-        spent += float(np.load(path)["seconds"])
-    return spent
+    return skeleton.make_shards(shard_paths(work, config), lambda index: make_shard(config, index),
+                                progress=progress, describe=lambda shard: f"{len(shard['y'])} images")
 
 
 def load_data(work: Path, config: TrainConfig) -> tuple[dict, dict]:
     """(train, held-out) dicts of concatenated shard arrays."""
-    def cat(indices):
-        parts = [np.load(work / "data" / f"shard_{i:04d}.npz") for i in indices]
-        return {k: np.concatenate([p[k] for p in parts]) for k in ("x", "y", "family", "shape")}
-
-    n_train = config.shards - config.heldout_shards
-    return cat(range(n_train)), cat(range(n_train, config.shards))
+    paths, n_train = shard_paths(work, config), config.shards - config.heldout_shards
+    keys = ("x", "y", "family", "shape")
+    return skeleton.concatenate_shards(paths[:n_train], keys), skeleton.concatenate_shards(paths[n_train:], keys)
 
 
 def _unit(y: np.ndarray) -> np.ndarray:
@@ -197,55 +182,26 @@ def train(work: Path, config: TrainConfig, *, progress: Progress = lambda s: Non
     steps_per_epoch = -(-len(train_set["y"]) // config.batch)
     sched = torch.optim.lr_scheduler.OneCycleLR(opt, max_lr=config.lr, total_steps=config.epochs * steps_per_epoch,
                                                 pct_start=0.15)
-    ckpt = work / "checkpoint.pt"
-    start_epoch, spent = 0, 0.0
-    state = torch.load(ckpt, map_location="cpu", weights_only=True) if ckpt.is_file() else None
-    if state is not None and json.loads(state["settings"]) != config.train_settings():
-        progress("train: the checkpoint is of other training settings; starting over")
-        state = None
-    if state is not None:
-        net.load_state_dict(state["net"])
-        opt.load_state_dict(state["opt"])
-        sched.load_state_dict(state["sched"])
-        start_epoch, spent = int(state["epoch"]), float(state["seconds"])
-        progress(f"train: resuming after epoch {start_epoch}")
+    trainer = skeleton.Trainer(work, config.train_settings(), net, opt, sched, progress=progress)
     x_all = torch.from_numpy(train_set["x"])
     y_all = torch.from_numpy(_unit(train_set["y"]).astype(np.float32))
-    for epoch in range(start_epoch, config.epochs):
-        t0 = time.perf_counter()
-        net.train()
-        order = torch.randperm(len(y_all), generator=torch.Generator().manual_seed(config.seed * 1000 + epoch))
-        total = 0.0
-        for b in range(steps_per_epoch):
-            idx = order[b * config.batch:(b + 1) * config.batch]
-            x = x_all[idx].float()
-            opt.zero_grad()
-            loss = torch.mean((net.unit(x) - y_all[idx]) ** 2)
-            loss.backward()
-            opt.step()
-            sched.step()
-            total += loss.item() * len(idx)
-        spent += time.perf_counter() - t0
-        torch.save({"net": net.state_dict(), "opt": opt.state_dict(), "sched": sched.state_dict(),
-                    "epoch": epoch + 1, "seconds": spent, "settings": json.dumps(config.train_settings())},
-                   ckpt.with_suffix(".tmp"))
-        ckpt.with_suffix(".tmp").replace(ckpt)
+
+    def loss(idx):
+        return torch.mean((net.unit(x_all[idx].float()) - y_all[idx]) ** 2)
+
+    def report(epoch: int, mean_loss: float) -> None:
         held_err = heldout_errors(net, held)
         mean_ratio = np.mean([v["ratio"] for v in held_err.values() if v["ratio"] is not None])
-        progress(f"train: epoch {epoch + 1}/{config.epochs} loss {total / len(y_all):.4f} "
-                 f"held-out error/middle {mean_ratio:.3f} ({spent:.0f} s)")
-    return net, spent
+        progress(f"train: epoch {epoch}/{config.epochs} loss {mean_loss:.4f} "
+                 f"held-out error/middle {mean_ratio:.3f} ({trainer.seconds:.0f} s)")
+
+    trainer.epochs(config.epochs, len(y_all), config.batch, config.seed, loss, after=report)
+    return net, trainer.seconds
 
 
 def write_weights(out: Path, net, config: TrainConfig, *, data_seconds: float, train_seconds: float,
                   held: dict, counts: dict) -> dict:
     """Write ``initializer.pt`` (state dict) and ``initializer.json`` (how it was made) to ``out``."""
-    import torch
-
-    out.mkdir(parents=True, exist_ok=True)
-    tmp = out / (WEIGHTS_FILE + ".tmp")
-    torch.save(net.state_dict(), tmp)
-    tmp.replace(out / WEIGHTS_FILE)
     cfg = asdict(config)
     cfg["network"] = config.network.to_json()
     record = {
@@ -263,5 +219,5 @@ def write_weights(out: Path, net, config: TrainConfig, *, data_seconds: float, t
         "command": f"weavecap train-initializer --seed {config.seed} --geometries {config.geometries} "
                    f"--per-geometry {config.per_geometry} --shard-size {config.shard_geometries} --epochs {config.epochs}",
     }
-    (out / RECORD_FILE).write_text(json.dumps(record, indent=1) + "\n")
+    skeleton.write_weights(out / WEIGHTS_FILE, net, record)
     return record
