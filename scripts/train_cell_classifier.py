@@ -14,7 +14,7 @@ import argparse
 from pathlib import Path
 
 from weavecap.estimate.cell_classifier import weights_dir
-from weavecap.estimate.cell_training import CellTrainConfig, run
+from weavecap.training.cell_classifier import CellTrainConfig, run
 
 
 def main() -> None:

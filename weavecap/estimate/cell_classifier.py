@@ -18,9 +18,9 @@ network sees structure and colour differences, not the exposure, the light's gra
 colour block's hue.
 
 The weights are trained on :mod:`.cell_photos`' varied procedural images
-(:mod:`.cell_training`, ``scripts/train_cell_classifier.py``) and shipped as ``.npz`` (read with
-``allow_pickle=False``) beside a JSON record of how they were trained and what they scored on
-held-out images (:func:`load_classifier`).
+(:mod:`weavecap.training.cell_classifier`, ``scripts/train_cell_classifier.py``) and shipped as
+``.npz`` (read with ``allow_pickle=False``) beside a JSON record of how they were trained and
+what they scored on held-out images (:func:`load_classifier`).
 """
 
 from __future__ import annotations
@@ -49,7 +49,7 @@ def network_input(canvas: np.ndarray) -> np.ndarray:
 
     ``canvas`` (H, W, 3) linear RGB (any exposure). Its square root is split into luminance
     and two opponent colour channels (red − green, blue − yellow); each has its local mean
-    (Gaussian, σ = 2 cells) taken away, and all are divided by the luminance's local standard
+    (:func:`local_mean`) taken away, and all are divided by the luminance's local standard
     deviation (same window; at least 2% of the local mean luminance, so that a flat patch stays
     flat rather than amplifying noise).
     """
@@ -58,11 +58,21 @@ def network_input(canvas: np.ndarray) -> np.ndarray:
         img = np.repeat(img[..., None], 3, axis=2)
     r, g, b = img[..., 0], img[..., 1], img[..., 2]
     chans = [(r + g + b) / 3.0, r - g, b - 0.5 * (r + g)]
-    sigma = 2.0 * CELL_PX
-    means = [cv2.GaussianBlur(c, (0, 0), sigma, borderType=cv2.BORDER_REFLECT) for c in chans]
-    lum_var = cv2.GaussianBlur((chans[0] - means[0]) ** 2, (0, 0), sigma, borderType=cv2.BORDER_REFLECT)
+    means = [local_mean(c) for c in chans]
+    lum_var = local_mean((chans[0] - means[0]) ** 2)
     spread = np.sqrt(np.maximum(lum_var, (0.02 * np.maximum(means[0], 1e-3)) ** 2)) + 1e-4
     return np.stack([(c - m) / spread for c, m in zip(chans, means)]).astype(np.float32)
+
+
+def local_mean(channel: np.ndarray) -> np.ndarray:
+    """A channel's mean over about two cells (a Gaussian of σ = 2 cells), computed on a grid of
+    half a cell (area-averaged down, bilinear up: the Gaussian is that smooth) — a large photo's
+    canvas in milliseconds rather than a second."""
+    h, w = channel.shape
+    step = CELL_PX // 2
+    small = cv2.resize(channel, (max(1, w // step), max(1, h // step)), interpolation=cv2.INTER_AREA)
+    small = cv2.GaussianBlur(small, (0, 0), 2.0 * CELL_PX / step, borderType=cv2.BORDER_REFLECT)
+    return cv2.resize(small, (w, h), interpolation=cv2.INTER_LINEAR)
 
 
 def build_network(widths: tuple[int, ...] = WIDTHS):
@@ -126,16 +136,6 @@ class CellClassifier:
     def probabilities(self, canvas: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
         """(n_e, n_a) the probability that the weft is on top in each cell."""
         return 1.0 / (1.0 + np.exp(-self.logits(canvas, shape)))
-
-
-def save_weights(net, folder: str | Path, record: dict) -> Path:
-    """Write ``net``'s state (``.npz`` of float32 arrays) and ``record`` (JSON) into ``folder``."""
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
-    state = {k: v.detach().cpu().numpy() for k, v in net.state_dict().items()}
-    np.savez(folder / WEIGHTS_FILE, **{k: (v.astype(np.float32) if v.dtype.kind == "f" else v) for k, v in state.items()})
-    (folder / RECORD_FILE).write_text(json.dumps(record, indent=1) + "\n")
-    return folder / WEIGHTS_FILE
 
 
 def load_classifier(folder: str | Path | None = None) -> CellClassifier | None:

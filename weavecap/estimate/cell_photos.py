@@ -40,6 +40,7 @@ from math import gcd
 import cv2
 import numpy as np
 
+from ..photo import linear_to_srgb, srgb_to_linear
 from .sampling import herringbone, interlaces, point_twill, satin, twill
 
 #: the share of images whose grid is half a cell off along one axis or both
@@ -125,8 +126,7 @@ def _colour(rng: np.random.Generator) -> np.ndarray:
     s = rng.choice([rng.uniform(0, 0.15), rng.uniform(0.15, 1.0)])
     v = rng.choice([rng.uniform(0.03, 0.2), rng.uniform(0.2, 1.0), rng.uniform(0.85, 1.0)])
     hsv = np.array([[[h, s, v]]], np.float32)
-    srgb = cv2.cvtColor(hsv, cv2.COLOR_HSV2RGB)[0, 0]
-    return np.where(srgb <= 0.04045, srgb / 12.92, ((srgb + 0.055) / 1.055) ** 2.4).astype(np.float32)
+    return srgb_to_linear(cv2.cvtColor(hsv, cv2.COLOR_HSV2RGB)[0, 0])
 
 
 def _family_colours(rng: np.random.Generator, count: int, base: np.ndarray) -> np.ndarray:
@@ -338,15 +338,6 @@ def _locate_vertical(fam: _Family, across: np.ndarray, along: np.ndarray) -> tup
 
 # ----------------------------------------------------------------------------- camera
 
-def _srgb(x: np.ndarray) -> np.ndarray:
-    x = np.clip(x, 0, 1)
-    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
-
-
-def _linear(x: np.ndarray) -> np.ndarray:
-    return np.where(x <= 0.04045, x / 12.92, ((x + 0.055) / 1.055) ** 2.4)
-
-
 def cell_sample(rng: np.random.Generator, *, cells: tuple[int, int] = (16, 16), cell_px: int = 16,
                 weave: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """One training example: a woven image (:func:`render_weave`) on a cell canvas
@@ -419,7 +410,7 @@ def photographed(rng: np.random.Generator, image: np.ndarray, states: np.ndarray
     if blur > 0:
         canvas = cv2.GaussianBlur(canvas, (0, 0), blur)
     exposure = float(np.exp(rng.uniform(np.log(0.4), np.log(2.5)))) / max(1e-3, float(np.percentile(canvas, 99)))
-    canvas = _srgb(canvas * exposure * rng.uniform(0.5, 1.1))
+    canvas = linear_to_srgb(np.clip(canvas * exposure * rng.uniform(0.5, 1.1), 0, 1))
     canvas = canvas + rng.uniform(0, 0.04) * rng.standard_normal(canvas.shape)
     if rng.random() < 0.7:
         q = int(rng.integers(35, 96))
@@ -432,4 +423,4 @@ def photographed(rng: np.random.Generator, image: np.ndarray, states: np.ndarray
     sy, sx = to_image(*np.broadcast_arrays(py, px))
     covered = states[np.clip(np.floor(sy).astype(int), 0, big[0] - 1), np.clip(np.floor(sx).astype(int), 0, big[1] - 1)]
     labels = covered.mean(axis=(2, 3))
-    return _linear(np.clip(canvas, 0, 1)).astype(np.float32), labels.astype(np.float32)
+    return srgb_to_linear(np.clip(canvas, 0, 1)), labels.astype(np.float32)

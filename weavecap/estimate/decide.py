@@ -136,55 +136,51 @@ def named_shapes(max_repeat: int = MAX_REPEAT) -> list[tuple[int, int]]:
 
 @lru_cache(maxsize=None)
 def _library(shape: tuple[int, int]) -> tuple[tuple[str, np.ndarray], ...]:
-    """The named weaves of a repeat ``shape`` with their names, every cyclic shift of each as
-    a stack: ((name, (shifts, r_e, r_a) uint8), ...)."""
-    from .sampling import named_weaves
+    """The named weaves of a repeat ``shape`` with their prior families (:func:`naming_cost`),
+    every cyclic shift of each as a stack: ((family, (shifts, r_e, r_a) uint8), ...)."""
+    from .sampling import named_weave_families
 
-    out = []
-    for p in named_weaves(shape):
-        out.append((weave_name(p), cyclic_shifts(p)))
-    return tuple(out)
+    return tuple((family, cyclic_shifts(p)) for family, p in named_weave_families(shape))
 
 
 @lru_cache(maxsize=None)
 def family_sizes(max_repeat: int = MAX_REPEAT) -> dict[str, int]:
-    """How many named weaves each prior family holds up to ``max_repeat`` a side
-    (:func:`prior_family`)."""
+    """How many named weaves each prior family (plain, twill, broken twill, satin, basket, rib)
+    holds up to ``max_repeat`` a side."""
     sizes: dict[str, int] = {}
     for s in named_shapes(max_repeat):
-        for name, _ in _library(s):
-            sizes[prior_family(name)] = sizes.get(prior_family(name), 0) + 1
+        for family, _ in _library(s):
+            sizes[family] = sizes.get(family, 0) + 1
     return sizes
 
 
-def prior_family(name: str) -> str:
-    """The family a named weave's prior is shared in: its :func:`weave_family`, the broken
-    twills (herringbones, point twills) apart from the regular twills."""
-    return "broken twill" if name.split()[0] in ("herringbone", "point") else weave_family(name)
-
-
-def naming_cost(name: str, max_repeat: int = MAX_REPEAT) -> float:
-    """The nats it takes to name a named weave: which family (each as likely), then which of
-    its members (each as likely) — a plain weave costs log 6, one of a few hundred herringbones
-    some 6 nats more."""
+def naming_cost(family: str, max_repeat: int = MAX_REPEAT) -> float:
+    """The nats it takes to name a weave of a prior ``family``: which family (each as likely),
+    then which of its members (each as likely) — a plain weave costs log 6, one of a few
+    hundred herringbones some 6 nats more."""
     sizes = family_sizes(max_repeat)
-    return float(np.log(len(sizes)) + np.log(sizes[prior_family(name)]))
+    return float(np.log(len(sizes)) + np.log(sizes[family]))
 
 
 @dataclass(frozen=True)
 class Candidate:
-    """One pattern the decision weighed: its name, family, repeat (in the lattice's phase:
-    tiled from the lattice's first cell), log-likelihood and score (nats)."""
+    """One pattern the decision weighed: its prior family (:func:`naming_cost`; ``custom``),
+    repeat (in the lattice's phase: tiled from the lattice's first cell), log-likelihood and
+    score (nats)."""
 
-    name: str
     family: str
     pattern: np.ndarray
     loglik: float
     score: float
 
+    @property
+    def name(self) -> str:
+        """The weave's name (:func:`weavecap.estimate.weave_name.weave_name`)."""
+        return weave_name(self.pattern)
+
     def to_json(self) -> dict:
-        return {"name": self.name, "family": self.family, "loglik": round(self.loglik, 2), "score": round(self.score, 2),
-                "pattern": self.pattern.astype(int).tolist()}
+        return {"name": self.name, "family": weave_family(self.name), "loglik": round(self.loglik, 2),
+                "score": round(self.score, 2)}
 
 
 def repeat_shapes(lattice_shape: tuple[int, int], max_repeat: int = MAX_REPEAT,
@@ -211,16 +207,16 @@ def score_patterns(logits: np.ndarray, *, weights: np.ndarray | None = None, max
     out: list[Candidate] = []
     for shape in shapes:
         a1, a0 = fold(logits, shape, weights=weights)
-        for name, shifts in (_library(shape) if shape in named else ()):
+        for family, shifts in (_library(shape) if shape in named else ()):
             ll = np.where(shifts == 1, a1, a0).sum(axis=(1, 2))
             k = int(np.argmax(ll))
-            out.append(Candidate(name=name, family=weave_family(name), pattern=shifts[k], loglik=float(ll[k]),
-                                 score=float(ll[k]) - naming_cost(name, max_repeat)))
+            out.append(Candidate(family=family, pattern=shifts[k], loglik=float(ll[k]),
+                                 score=float(ll[k]) - naming_cost(family, max_repeat)))
         if 2 * shape[0] <= n_e and 2 * shape[1] <= n_a:
             p = (a1 > a0).astype(np.uint8)
             if minimal_repeat(p).shape == shape and weave_family(weave_name(p)) == "custom":
                 ll = float(np.maximum(a1, a0).sum())
-                out.append(Candidate(name=f"custom {shape[0]}×{shape[1]}", family="custom", pattern=p, loglik=ll,
+                out.append(Candidate(family="custom", pattern=p, loglik=ll,
                                      score=ll - shape[0] * shape[1] * np.log(2.0) - shape_cost))
     out.sort(key=lambda c: -c.score)
     return out
@@ -274,7 +270,7 @@ class PatternDecision:
                 "decided": self.decided, "runner_up": self.runner_up, "pattern": self.pattern.astype(int).tolist(),
                 "lattice": list(self.lattice.shape), "phase": list(self.phase), "phase_confidence": self.confidences,
                 "cells_confident": round(float(np.mean(np.abs(self.logits) > np.log(9.0))), 3),
-                "candidates": [c.to_json() | {"pattern": None} for c in self.candidates]}
+                "candidates": [c.to_json() for c in self.candidates]}
 
 
 #: the lattice's phases tried, in cells (rows, cols): as given, and half a cell off each way
@@ -336,7 +332,7 @@ def decide(image: np.ndarray, cells: CellGrid, *, photo: np.ndarray | None = Non
     evidence = best.score - other.score if other is not None else float("inf")
     pattern = minimal_repeat(best.pattern)
     kept = [best] + [c for c in ranked[1:] if not same_weave(c.pattern, best.pattern)][:4]
-    return PatternDecision(pattern=pattern, name=best.name, family=best.family, evidence=float(evidence),
+    return PatternDecision(pattern=pattern, name=best.name, family=weave_family(best.name), evidence=float(evidence),
                            decided=bool(evidence >= DECIDED_NATS), lattice=lattice, logits=logits,
                            runner_up=other.name if other is not None else "", candidates=kept, phase=phase,
                            confidences={f"{k[0]:g},{k[1]:g}": round(v[2], 3) for k, v in readings.items()})

@@ -37,24 +37,36 @@ def regular_weaves(shape: tuple[int, int]) -> list[np.ndarray]:
     """Every named weave with a (wefts, warps) repeat of ``shape``, both faces, distinct up to
     a cyclic shift: plain (2×2), twills a/b in both directions and satins n/s (n×n), basket
     k/k (2k×2k), ribs (2k×2 and 2×2k). Empty for shapes no named weave has."""
-    from .weave_name import canonical
+    return [p for _, p in _distinct(_regular(shape))]
 
+
+def _regular(shape: tuple[int, int]) -> list[tuple[str, np.ndarray]]:
+    """:func:`regular_weaves`' constructions with their families, one face each."""
     n_e, n_a = shape
-    found: list[np.ndarray] = []
+    plain = np.array([[1, 0], [0, 1]], dtype=np.uint8)
+    found: list[tuple[str, np.ndarray]] = []
     if n_e == n_a:
         n = n_e
         if n == 2:
-            found.append(np.array([[1, 0], [0, 1]], dtype=np.uint8))
-        found += [twill(a, n - a, step=d) for a in range(1, n) for d in (-1, 1)] if n >= 3 else []
-        found += [satin(n, k) for k in range(2, n - 1) if gcd(k, n) == 1]
+            found.append(("plain", plain))
+        found += [("twill", twill(a, n - a, step=d)) for a in range(1, n) for d in (-1, 1)] if n >= 3 else []
+        found += [("satin", satin(n, k)) for k in range(2, n - 1) if gcd(k, n) == 1]
         if n % 2 == 0 and n >= 4:
-            found.append(np.kron(np.array([[1, 0], [0, 1]], dtype=np.uint8), np.ones((n // 2, n // 2), dtype=np.uint8)))
+            found.append(("basket", np.kron(plain, np.ones((n // 2, n // 2), dtype=np.uint8))))
     for rows, cols in ((n_e // 2, 1), (1, n_a // 2)):
         if min(n_e, n_a) == 2 and max(n_e, n_a) >= 4 and (rows * 2, cols * 2) == shape:
-            found.append(np.kron(np.array([[1, 0], [0, 1]], dtype=np.uint8), np.ones((rows, cols), dtype=np.uint8)))
-    distinct: dict[tuple, np.ndarray] = {}
-    for p in found + [1 - p for p in found]:
-        distinct.setdefault(canonical(p), p.astype(np.uint8))
+            found.append(("rib", np.kron(plain, np.ones((rows, cols), dtype=np.uint8))))
+    return found
+
+
+def _distinct(tagged: list[tuple[str, np.ndarray]]) -> list[tuple[str, np.ndarray]]:
+    """``tagged`` (family, pattern) and every pattern's other face, each pattern once up to a
+    cyclic shift (the first family it came with)."""
+    from .weave_name import canonical
+
+    distinct: dict[tuple, tuple[str, np.ndarray]] = {}
+    for family, p in tagged + [(f, 1 - p) for f, p in tagged]:
+        distinct.setdefault(canonical(p), (family, p.astype(np.uint8)))
     return list(distinct.values())
 
 
@@ -105,18 +117,21 @@ def named_weaves(shape: tuple[int, int]) -> list[np.ndarray]:
     herringbones and point twills, by leg length) and the unequal baskets (hopsacks of
     a × b blocks). The pattern decision's library (:mod:`weavecap.estimate.decide`); the fit's
     named-weave starts keep to :func:`regular_weaves`."""
-    from .weave_name import canonical, minimal_repeat
+    return [p for _, p in named_weave_families(shape)]
+
+
+def named_weave_families(shape: tuple[int, int]) -> list[tuple[str, np.ndarray]]:
+    """:func:`named_weaves` with the family each comes from: ``plain``, ``twill``, ``satin``,
+    ``basket``, ``rib`` or ``broken twill``."""
+    from .weave_name import minimal_repeat
 
     n_e, n_a = shape
-    found = {canonical(p): p for p in regular_weaves(shape)}
-    extra = [q for *_, q in broken_twills(shape)]
+    extra = [("broken twill", q) for *_, q in broken_twills(shape)]
     if n_e % 2 == 0 and n_a % 2 == 0 and min(n_e, n_a) >= 4 and n_e != n_a:
-        extra.append(np.kron(np.array([[1, 0], [0, 1]], dtype=np.uint8), np.ones((n_e // 2, n_a // 2), dtype=np.uint8)))
-    for p in extra + [1 - p for p in extra]:
-        p = p.astype(np.uint8)
-        if interlaces(p) and minimal_repeat(p).shape == p.shape:
-            found.setdefault(canonical(p), p)
-    return list(found.values())
+        extra.append(("basket", np.kron(np.array([[1, 0], [0, 1]], dtype=np.uint8),
+                                        np.ones((n_e // 2, n_a // 2), dtype=np.uint8))))
+    extra = [(f, p) for f, p in extra if interlaces(p) and minimal_repeat(p).shape == p.shape]
+    return _distinct(_regular(shape) + extra)
 
 
 def interlaces(pattern: np.ndarray) -> bool:

@@ -1,36 +1,38 @@
-"""Training data and training of the cell classifier (:mod:`.cell_classifier`).
+"""Training data and training of the cell classifier (:mod:`weavecap.estimate.cell_classifier`).
 
 Data: :func:`weavecap.estimate.cell_photos.cell_sample` images of random weaves
 (:data:`~weavecap.estimate.cell_photos.WEAVE_KINDS`, drawn equally often) and, for a fifth,
 the forward model's renders of them (:func:`forward_samples`: smooth, clean yarns of other
 shading, which the fit's own renders and photos like them look like), each a canvas of
-``cells`` × ``cells`` cells at :data:`~.cell_classifier.CELL_PX` with every cell's state. They
-are written in shards (``.npz``: the canvases as 8-bit sRGB, as a photo holds them, the labels
-— soft where a canvas is half a cell off — and the weave kind of each); a shard that exists is not made again, so an interrupted run
-resumes; the last ``heldout_shards`` shards are held out, never trained on.
+``cells`` × ``cells`` cells at :data:`~weavecap.estimate.cell_classifier.CELL_PX` with every
+cell's state. They are written in shards (:func:`weavecap.training.trainer.make_shards`:
+``.npz`` of the canvases as 8-bit sRGB, as a photo holds them, the labels — soft where a canvas
+is half a cell off — and the weave kind of each); a shard that exists is not made again, so an
+interrupted run resumes; the last ``heldout_shards`` shards are held out, never trained on.
 
-Training: Adam on the binary cross-entropy of every cell's logit, cosine learning-rate decay,
-batches shuffled by a generator seeded with (seed, epoch), each canvas flipped up–down and
-left–right at random (a flip keeps which yarn is on top in each cell); a checkpoint after every
-epoch (``torch.save`` of tensors only, read back with ``weights_only=True``) lets an interrupted
-run resume at the next epoch. Then the logits' temperature is fitted on the held-out shards (the
-scale that minimises their cross-entropy: calibrated probabilities for the pattern decision,
-:mod:`weavecap.estimate.decide`), and the held-out accuracy, overall and per weave kind, is
-written into the record beside the weights.
+Training: AdamW on the binary cross-entropy of every cell's logit, one-cycle learning rate,
+epochs of shuffled batches with a checkpoint after each (:class:`weavecap.training.trainer.Trainer`:
+an interrupted run resumes at the next epoch), each batch flipped up–down and left–right at
+random (a flip keeps which yarn is on top in each cell; drawn from a generator seeded by the
+batch's first example and the epoch, so a resumed run flips alike). Then the logits' temperature is fitted
+on the held-out shards (the scale that minimises their cross-entropy: calibrated probabilities
+for the pattern decision, :mod:`weavecap.estimate.decide`), and the held-out accuracy, overall
+and per weave kind, is written into the record beside the weights
+(:func:`weavecap.training.trainer.write_weights`).
 """
 
 from __future__ import annotations
 
-import json
-import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
-from .cell_classifier import CELL_PX, WIDTHS, build_network, count_parameters, network_input, save_weights
-from .cell_photos import MARGIN, WEAVE_KINDS, cell_sample, photographed, random_weave, tiled
+from ..estimate.cell_classifier import CELL_PX, WEIGHTS_FILE, WIDTHS, build_network, count_parameters, network_input
+from ..estimate.cell_photos import MARGIN, WEAVE_KINDS, cell_sample, photographed, random_weave, tiled
+from ..photo import linear_to_srgb, srgb_to_linear
+from . import trainer as skeleton
 
 Progress = Callable[[str], None]
 
@@ -71,14 +73,8 @@ class CellTrainConfig:
 
 
 def _to_srgb8(linear: np.ndarray) -> np.ndarray:
-    x = np.clip(linear, 0, 1)
-    s = np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
-    return (s * 255 + 0.5).astype(np.uint8)
-
-
-def _from_srgb8(srgb: np.ndarray) -> np.ndarray:
-    s = srgb.astype(np.float32) / 255
-    return np.where(s <= 0.04045, s / 12.92, ((s + 0.055) / 1.055) ** 2.4).astype(np.float32)
+    """A linear canvas in [0, 1] as a photo holds it: 8-bit sRGB."""
+    return (linear_to_srgb(np.clip(linear, 0, 1)) * 255 + 0.5).astype(np.uint8)
 
 
 def forward_samples(rng: np.random.Generator, count: int, kind: str, *, cells: int) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -90,10 +86,10 @@ def forward_samples(rng: np.random.Generator, count: int, kind: str, *, cells: i
     rays cast once). Each render goes through :func:`~weavecap.estimate.cell_photos.photographed`
     like the procedural images. Returns [(canvas, labels)] as
     :func:`~weavecap.estimate.cell_photos.cell_sample`."""
+    from ..estimate.initializer import CONTINUOUS_KEYS
+    from ..estimate.sampling import random_fabric
     from ..model.render import render_numpy
     from ..model.scene import GEOMETRY_KEYS, RIGS, View, build_scene
-    from .initializer import CONTINUOUS_KEYS
-    from .sampling import random_fabric
 
     weave = random_weave(rng, kind, max_size=12)
     span = (cells + 2 * MARGIN, cells + 2 * MARGIN)
@@ -121,8 +117,7 @@ def make_shard(config: CellTrainConfig, index: int) -> dict:
     (:func:`forward_samples`, ``per_geometry`` appearances a geometry), the rest by
     :func:`~weavecap.estimate.cell_photos.cell_sample`. Arrays: ``image`` (N, H, W, 3) uint8
     sRGB, ``labels`` (N, cells, cells) float16, ``kind`` (N,) str (``forward:`` before the
-    forward model's), ``seconds``."""
-    t0 = time.perf_counter()
+    forward model's)."""
     rng = np.random.default_rng([config.seed, index])
     count = min(config.shard_images, config.images - index * config.shard_images)
     forward = int(round(config.forward_share * count))
@@ -141,39 +136,28 @@ def make_shard(config: CellTrainConfig, index: int) -> dict:
         images.append(_to_srgb8(canvas))
         labels.append(lab.astype(np.float16))
         kinds.append(kind)
-    return {"image": np.stack(images), "labels": np.stack(labels), "kind": np.array(kinds),
-            "seconds": np.float64(time.perf_counter() - t0)}
+    return {"image": np.stack(images), "labels": np.stack(labels), "kind": np.array(kinds)}
+
+
+def shard_paths(work: Path, config: CellTrainConfig) -> list[Path]:
+    """Where the data shards live: ``work/data/shard_k.npz``."""
+    return [skeleton.shard_path(Path(work) / "data", k) for k in range(config.shards)]
 
 
 def generate_data(work: Path, config: CellTrainConfig, *, progress: Progress = lambda s: None) -> float:
-    """Make the missing shards under ``work/data``; return the seconds all shards took."""
-    data = work / "data"
-    data.mkdir(parents=True, exist_ok=True)
-    spent = 0.0
-    for index in range(config.shards):
-        path = data / f"shard_{index:04d}.npz"
-        if not path.is_file():
-            shard = make_shard(config, index)
-            tmp = data / f"shard_{index:04d}.tmp.npz"
-            np.savez(tmp, **shard)
-            tmp.replace(path)
-            progress(f"data: shard {index + 1}/{config.shards} ({len(shard['labels'])} images, "
-                     f"{float(shard['seconds']):.0f} s)")
-        with np.load(path, allow_pickle=False) as shard:
-            spent += float(shard["seconds"])
-    return spent
+    """Make the missing shards; return the seconds all shards took to make."""
+    (Path(work) / "data").mkdir(parents=True, exist_ok=True)
+    return skeleton.make_shards(shard_paths(work, config), lambda index: make_shard(config, index), progress=progress,
+                                describe=lambda arrays: f"{len(arrays['labels'])} images")
 
 
 def load_data(work: Path, config: CellTrainConfig, indices) -> dict:
     """Concatenated shards ``indices``: ``x`` (N, 3, H, W) float16 network inputs, ``labels``,
     ``kind``."""
-    xs, labels, kinds = [], [], []
-    for i in indices:
-        with np.load(work / "data" / f"shard_{i:04d}.npz", allow_pickle=False) as shard:
-            xs += [network_input(_from_srgb8(im)).astype(np.float16) for im in shard["image"]]
-            labels.append(shard["labels"])
-            kinds.append(shard["kind"])
-    return {"x": np.stack(xs), "labels": np.concatenate(labels), "kind": np.concatenate(kinds)}
+    paths = shard_paths(work, config)
+    data = skeleton.concatenate_shards([paths[i] for i in indices], ("image", "labels", "kind"))
+    x = np.stack([network_input(srgb_to_linear(im / np.float32(255))).astype(np.float16) for im in data["image"]])
+    return {"x": x, "labels": data["labels"], "kind": data["kind"]}
 
 
 def predict_logits(net, x: np.ndarray) -> np.ndarray:
@@ -235,59 +219,36 @@ def train(work: Path, config: CellTrainConfig, *, progress: Progress = lambda s:
     torch.manual_seed(config.seed)
     net = build_network(tuple(config.widths))
     opt = torch.optim.AdamW(net.parameters(), lr=config.lr, weight_decay=config.weight_decay)
-    n_train = config.shards - config.heldout_shards
-    data = load_data(work, config, range(n_train))
+    data = load_data(work, config, range(config.shards - config.heldout_shards))
     steps = -(-len(data["labels"]) // config.batch)
     sched = torch.optim.lr_scheduler.OneCycleLR(opt, max_lr=config.lr, total_steps=config.epochs * steps, pct_start=0.1)
-    ckpt = work / "checkpoint.pt"
-    start, spent = 0, 0.0
-    state = torch.load(ckpt, map_location="cpu", weights_only=True) if ckpt.is_file() else None
-    if state is not None and json.loads(state["settings"]) != config.train_settings():
-        progress("train: the checkpoint is of other training settings; starting over")
-        state = None
-    if state is not None:
-        net.load_state_dict(state["net"])
-        opt.load_state_dict(state["opt"])
-        sched.load_state_dict(state["sched"])
-        start, spent = int(state["epoch"]), float(state["seconds"])
-        progress(f"train: resuming after epoch {start}")
+    trainer = skeleton.Trainer(work, config.train_settings(), net, opt, sched, progress=progress)
     x_all = torch.from_numpy(data["x"])
     y_all = torch.from_numpy(data["labels"].astype(np.float32))
     loss_fn = torch.nn.BCEWithLogitsLoss()
-    for epoch in range(start, config.epochs):
-        t0 = time.perf_counter()
-        net.train()
-        gen = torch.Generator().manual_seed(config.seed * 1000 + epoch)
-        order = torch.randperm(len(y_all), generator=gen)
-        total = 0.0
-        for b in range(steps):
-            idx = order[b * config.batch:(b + 1) * config.batch]
-            x, y = x_all[idx].float(), y_all[idx]
-            flips = torch.rand(2, generator=gen)
-            if flips[0] < 0.5:
-                x, y = x.flip(2), y.flip(1)
-            if flips[1] < 0.5:
-                x, y = x.flip(3), y.flip(2)
-            opt.zero_grad()
-            loss = loss_fn(net(x)[:, 0], y)
-            loss.backward()
-            opt.step()
-            sched.step()
-            total += loss.item() * len(idx)
-        spent += time.perf_counter() - t0
-        torch.save({"net": net.state_dict(), "opt": opt.state_dict(), "sched": sched.state_dict(), "epoch": epoch + 1,
-                    "seconds": spent, "settings": json.dumps(config.train_settings())}, ckpt.with_suffix(".tmp"))
-        ckpt.with_suffix(".tmp").replace(ckpt)
-        progress(f"train: epoch {epoch + 1}/{config.epochs} loss {total / len(y_all):.4f} ({spent:.0f} s)")
-    return net, spent
+
+    def loss(idx):
+        x, y = x_all[idx].float(), y_all[idx]
+        flips = torch.rand(2, generator=torch.Generator().manual_seed(int(idx[0]) * 7919 + trainer.done))
+        if flips[0] < 0.5:
+            x, y = x.flip(2), y.flip(1)
+        if flips[1] < 0.5:
+            x, y = x.flip(3), y.flip(2)
+        return loss_fn(net(x)[:, 0], y)
+
+    trainer.epochs(config.epochs, len(y_all), config.batch, config.seed, loss,
+                   after=lambda done, mean: progress(f"train: epoch {done}/{config.epochs} loss {mean:.4f} "
+                                                     f"({trainer.seconds:.0f} s)"))
+    return net, trainer.seconds
 
 
 def run(work: Path, out: Path, config: CellTrainConfig, *, progress: Progress = lambda s: None) -> dict:
     """Data, training, temperature and held-out scores; the weights and their record written to
-    ``out``. Returns the record."""
+    ``out`` (created if missing). Returns the record."""
     import torch
 
     torch.set_num_threads(1)
+    Path(out).mkdir(parents=True, exist_ok=True)
     data_seconds = generate_data(work, config, progress=progress)
     net, train_seconds = train(work, config, progress=progress)
     held = load_data(work, config, range(config.shards - config.heldout_shards, config.shards))
@@ -309,6 +270,6 @@ def run(work: Path, out: Path, config: CellTrainConfig, *, progress: Progress = 
         "command": f"python scripts/train_cell_classifier.py --seed {config.seed} --images {config.images} "
                    f"--epochs {config.epochs}",
     }
-    save_weights(net, out, record)
+    skeleton.write_weights(Path(out) / WEIGHTS_FILE, net, record)
     progress(f"held-out: {record['heldout']['cell_accuracy']:.4f} of cells right; temperature {temperature:.3f}")
     return record
