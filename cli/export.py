@@ -8,7 +8,7 @@ from pathlib import Path
 
 import click
 
-from .options import force_option, pattern_option, quiet_option, seed_option, verbose_option
+from .options import FiniteFloat, force_option, pattern_option, quiet_option, seed_option, verbose_option
 
 
 def _formats(ctx, param, value: str) -> tuple[str, ...]:
@@ -23,12 +23,12 @@ def _formats(ctx, param, value: str) -> tuple[str, ...]:
 
 
 @click.command(context_settings={"max_content_width": 100})
-@click.argument("params_file", metavar="PARAMS.json", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("params_file", metavar="PARAMS.json", type=click.Path(readable=False, path_type=Path))
 @click.option("-o", "--output", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
               help="Folder to write into (created).")
 @click.option("--format", "formats", default="wif,pbr,u3m,gltf,mitsuba", show_default=True, callback=_formats,
               help="What to write, comma-separated: wif, pbr, u3m, gltf, mitsuba.")
-@click.option("--pitch-mm", type=click.FloatRange(min=0, min_open=True), default=None,
+@click.option("--pitch-mm", type=FiniteFloat(0.001, 1000.0), default=None,
               help="Yarn spacing in millimetres [default: the params' scale.pitch_mm].")
 @click.option("--texels-per-yarn", type=click.IntRange(4, 64), default=16, show_default=True,
               help="Map resolution across one yarn.")
@@ -40,11 +40,11 @@ def _formats(ctx, param, value: str) -> tuple[str, ...]:
               help="File type of the pbr maps (EXR: linear float).")
 @click.option("--normal-convention", type=click.Choice(["opengl", "directx"]), default="opengl", show_default=True,
               help="Green channel of the pbr normal map: opengl (Blender, glTF) or directx (Substance, Unreal).")
-@click.option("--swatch-mm", type=click.FloatRange(min=1), default=100.0, show_default=True,
+@click.option("--swatch-mm", type=FiniteFloat(1.0, 10000.0), default=100.0, show_default=True,
               help="Side of the glTF and Mitsuba swatches, millimetres (rounded to whole tiles).")
 @seed_option
-@click.option("--name", default=None, help="File name stem of the outputs [default: the params file's name, or "
-                                           "its folder's for params.json].")
+@click.option("--name", default=None, help="File name stem of the outputs, a plain name (no folders) [default: the "
+                                           "params file's name, or its folder's for params.json].")
 @pattern_option
 @click.option("--json", "as_json", is_flag=True, help="Print the files written as JSON on standard output.")
 @force_option
@@ -81,7 +81,11 @@ def export(params_file, out, formats, pitch_mm, texels_per_yarn, repeats, bits, 
     from weavecap import params as wparams
     from weavecap.export import MATERIAL_FORMATS, ExportOptions, default_name
     from weavecap.export import export as run_export
+    from weavecap.io import check_writable, folder_lock, plain_name
 
+    if name is not None:
+        plain_name(name, what="--name")
+    check_writable(out, folder=True)
     fabric = wparams.load(params_file)
     if pattern_file is not None:
         from weavecap.patterns import load_pattern
@@ -96,7 +100,8 @@ def export(params_file, out, formats, pitch_mm, texels_per_yarn, repeats, bits, 
     if not quiet and (verbose or sys.stderr.isatty()):
         work = " (baking the surface model and fitting the material)" if set(formats) & set(MATERIAL_FORMATS) else ""
         click.echo(f"weavecap export: {', '.join(formats)} of {params_file} into {out}{work}", err=True)
-    written = run_export(fabric, out, options)
+    with folder_lock(out):
+        written = run_export(fabric, out, options)
     if as_json:
         click.echo(json.dumps({"files": [str(p) for p in written]}, indent=1))
     if not quiet:

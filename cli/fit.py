@@ -7,8 +7,8 @@ from pathlib import Path
 
 import click
 
-from .options import (check_batch_options, force_option, jobs_option, quiet_option, scheduler_option, seed_option,
-                      verbose_option)
+from .options import (FiniteFloat, check_batch_options, force_option, jobs_option, quiet_option, scheduler_option,
+                      seed_option, verbose_option)
 
 #: the share of a yarn family's cell centres the camera clipped (``fit.fidelity.clipped``) from
 #: which the fit's line says so. Measured (draft): 0 on the own renders (their clipped gaps are
@@ -30,7 +30,7 @@ def clipping_note(record: dict) -> str:
 
 
 @click.command(context_settings={"max_content_width": 100})
-@click.argument("photos", nargs=-1, required=True, type=click.Path(dir_okay=False, path_type=Path), metavar="PHOTO...")
+@click.argument("photos", nargs=-1, required=True, type=click.Path(readable=False, path_type=Path), metavar="PHOTO...")
 @click.option("-o", "--output", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
               help="Output folder (one photo: its files; several: one sub-folder each + summary.jsonl).")
 @click.option("--quality", type=click.Choice(["draft", "normal", "high"]), default="normal", show_default=True,
@@ -43,14 +43,14 @@ def clipping_note(record: dict) -> str:
                    "photo again under the other rigs when the render comes out blurred or off-colour (sharpness "
                    "under 0.8 of the photo's, a yarn family beyond ΔE 10); best always does (three times as long); "
                    "either keeps the lowest loss of the faithful captures.")
-@click.option("--budget", "budget_s", type=click.FloatRange(min=1), default=None,
+@click.option("--budget", "budget_s", type=FiniteFloat(min=1), default=None,
               help="Stop each photo's fit after this many seconds (the best result so far is kept); a photo "
                    "captured under several rigs (--light) gets this for each.")
 @jobs_option("Photos fitted")
 @scheduler_option("photo")
-@click.option("--start-from", "start_from", type=click.Path(dir_okay=False, path_type=Path),
+@click.option("--start-from", "start_from", type=click.Path(dir_okay=False, readable=False, path_type=Path),
               help="Warm start: begin the fit at this params.json instead of the pre-estimate (on its repeat).")
-@click.option("--pattern", "pattern_file", type=click.Path(dir_okay=False, path_type=Path),
+@click.option("--pattern", "pattern_file", type=click.Path(dir_okay=False, readable=False, path_type=Path),
               help="A known weave pattern (params .json, .wif weaving draft, or a text file of 0/1 rows), kept fixed; "
                    "its repeat is used where the photo shows a shorter one.")
 @click.option("--exposure", type=click.Choice(["rig", "photo"]), default="rig", show_default=True,
@@ -92,6 +92,7 @@ def fit(photos, out, quality, light, budget_s, jobs, scheduler, start_from, patt
     """
     from weavecap import batch as wbatch
     from weavecap import params as wparams
+    from weavecap.io import check_writable, folder_lock
     from weavecap.patterns import load_pattern
     from weavecap.pipeline import CaptureOptions, FitJob
 
@@ -116,12 +117,14 @@ def fit(photos, out, quality, light, budget_s, jobs, scheduler, start_from, patt
             say(f"{where} {photo}: {event.line['status']}: {record.get('reason')}", error=True)
 
     check_batch_options(jobs, scheduler)
+    check_writable(out, folder=True)
     job = FitJob(CaptureOptions(quality=quality, light=light, seed=seed, budget_s=budget_s,
                                 start_from=wparams.load(start_from) if start_from else None,
                                 pattern=load_pattern(pattern_file) if pattern_file else None,
                                 use_network=not no_network, exposure=exposure))
-    batch = wbatch.plan(job, photos, out, force=force)
-    result = wbatch.run(batch, jobs=jobs, scheduler=scheduler, on_event=report)
+    with folder_lock(out):
+        batch = wbatch.plan(job, photos, out, force=force)
+        result = wbatch.run(batch, jobs=jobs, scheduler=scheduler, on_event=report)
     if as_json:
         click.echo(json.dumps(result.lines if batch.several else result.lines[0], indent=1))
     if result.exit:

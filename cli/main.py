@@ -100,12 +100,21 @@ def cli() -> None:
       weavecap doctor
       weavecap bench
 
-    Exit status: 0 done; 2 bad usage or invalid input file; 3 photo rejected; 1 unexpected.
+    Exit status: 0 done; 2 bad usage or invalid input file; 3 photo rejected; 1 unexpected;
+    130 interrupted.
     """
 
 
-def main(argv: list[str] | None = None) -> None:
-    """Console-script entry point."""
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, handled as Ctrl-C is (exit 143 instead of 130)."""
+
+
+def _terminated(signum, frame):
+    raise Terminated()
+
+
+def _run(argv: list[str] | None) -> None:
+    """The command itself; ends with SystemExit (its exit status)."""
     try:
         cli.main(args=argv, prog_name="weavecap", standalone_mode=True)
     except SystemExit:
@@ -119,6 +128,61 @@ def main(argv: list[str] | None = None) -> None:
         click.echo(f"weavecap: unexpected error: {type(exc).__name__}: {exc}\n"
                    "  (set WEAVECAP_DEBUG=1 to see the traceback, and please report it)", err=True)
         sys.exit(outcome(exc).exit)
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Console-script entry point: Ctrl-C (and SIGTERM) stop any command within a fraction of a
+    second.
+
+    Python runs signal handlers in the main thread between bytecodes, so a long call into C++
+    (Dr.Jit compiling a kernel for minutes, a solver) would hold Ctrl-C until it returns. The
+    command therefore runs in a worker thread and this thread only waits for it: on Ctrl-C it
+    says so, removes the files being written (:func:`weavecap.io.remove_unfinished`; finished
+    files and summary lines stay, as each was renamed into place or flushed when done) and ends
+    the process, worker thread and compiler included (``os._exit``: exit 130, SIGTERM 143).
+    Worker processes of ``--jobs`` die with it (:func:`weavecap.batch._die_with_parent`), and the
+    lock of an ``-o`` folder goes with the process.
+    """
+    import signal
+    import threading
+
+    ended: dict[str, object] = {}
+
+    def command() -> None:
+        try:
+            _run(argv)
+        except SystemExit as exc:
+            ended["exit"] = exc.code
+        except BaseException as exc:  # noqa: BLE001 - WEAVECAP_DEBUG: shown by this thread
+            ended["error"] = exc
+
+    signal.signal(signal.SIGTERM, _terminated)
+    worker = threading.Thread(target=command, name="weavecap-command", daemon=True)
+    worker.start()
+    try:
+        while worker.is_alive():
+            worker.join(0.25)
+    except KeyboardInterrupt as exc:
+        from weavecap.io import remove_unfinished
+
+        click.echo(INTERRUPTED, err=True)
+        remove_unfinished()
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(143 if isinstance(exc, Terminated) else outcome(exc).exit)
+    if "error" in ended:
+        raise ended["error"]
+    code = ended.get("exit")
+    status = code if isinstance(code, int) else (0 if code is None else 1)
+
+    def done(signum, frame):  # the work is done: a late Ctrl-C does not wait for the shutdown
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(status)
+
+    signal.signal(signal.SIGINT, done)
+    signal.signal(signal.SIGTERM, done)
+    sys.exit(code)
 
 
 if __name__ == "__main__":

@@ -24,8 +24,12 @@ EXIT_STATUS = [
     ("0", "Everything asked for was done."),
     ("1", "Something unexpected went wrong (set WEAVECAP_DEBUG=1 to see the traceback)."),
     ("2", "Bad usage or an invalid input file: bad JSON, a value out of range (the message names the "
-          "field and the allowed range), a missing file, an output that exists without --force."),
-    ("3", "A photo was rejected: not readable, not a woven fabric, or yarns not resolvable."),
+          "field and the allowed range), a missing file, an output that exists without --force, an "
+          "output that cannot be written, an output folder another run holds, a missing requirement "
+          "(libLLVM 19 or newer)."),
+    ("3", "A photo was rejected: not readable, not an image weavecap reads, not a woven fabric, or yarns "
+          "not resolvable."),
+    ("130", "Interrupted by Ctrl-C (143: by SIGTERM); finished outputs are kept."),
 ]
 
 

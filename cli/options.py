@@ -12,9 +12,24 @@ seed_option = click.option("--seed", type=int, default=0, show_default=True,
 verbose_option = click.option("-v", "--verbose", count=True, help="Say more (repeat for more).")
 quiet_option = click.option("-q", "--quiet", is_flag=True, help="Print nothing but errors.")
 pattern_option = click.option(
-    "--pattern", "pattern_file", type=click.Path(dir_okay=False, path_type=Path),
+    "--pattern", "pattern_file", type=click.Path(dir_okay=False, readable=False, path_type=Path),
     help="Use this weave pattern instead of the params file's: a .wif weaving draft, a params .json, "
          "or a text file of 0/1 rows (1 = weft over warp).")
+
+
+class FiniteFloat(click.FloatRange):
+    """A float option in a range, NaN and infinities refused (click's FloatRange lets NaN
+    through: every comparison with it is false)."""
+
+    name = "float"
+
+    def convert(self, value, param, ctx):
+        import math
+
+        number = super().convert(value, param, ctx)
+        if not math.isfinite(number):
+            self.fail(f"{value!r} is not a finite number", param, ctx)
+        return number
 
 
 def jobs_option(done: str):
@@ -27,26 +42,29 @@ def scheduler_option(item: str):
     """``--scheduler ADDRESS`` of a batch command (:func:`weavecap.batch.run`); ``item`` names one input."""
     return click.option("--scheduler", metavar="ADDRESS",
                         help="Run the batch on a Dask cluster: a scheduler's address (tcp://host:8786, see "
-                             f"`dask scheduler`), or local:N for N workers here. A {item} whose worker dies is "
-                             "retried once.")
+                             "`dask scheduler`; tls://host:8786 with Dask's TLS settings), or local:N for N workers "
+                             f"here. A {item} whose worker dies is retried once. Jobs and results travel as "
+                             "pickles: use only a cluster you trust (docs/reliability.md).")
 
 
 def check_batch_options(jobs: int, scheduler: str | None) -> None:
-    """Refuse ``--jobs`` with ``--scheduler`` and a bad ``local:N`` before any work.
+    """Refuse ``--jobs`` with ``--scheduler``, and a scheduler address weavecap cannot use
+    (:func:`weavecap.batch.scheduler_security`), before any work.
 
     Raises
     ------
     InputError
-        Both given, or ``local:`` with a bad count.
+        Both given, ``local:`` with a bad count, a protocol other than tcp:// and tls://, or
+        tls:// without Dask's TLS settings.
     """
-    from weavecap.batch import local_workers
+    from weavecap.batch import scheduler_security
     from weavecap.errors import InputError
 
     if scheduler and jobs > 1:
         raise InputError("--jobs and --scheduler exclude each other: --jobs N runs N processes here, "
                          "--scheduler local:N runs N Dask workers here")
     if scheduler:
-        local_workers(scheduler)
+        scheduler_security(scheduler)
 
 
 def parse_tiles(ctx, param, value: str) -> tuple[int, int]:

@@ -14,10 +14,10 @@ OUTPUTS = ("rectified.png", "regularized.png", "grid.png", "prepare.json")
 
 
 @click.command()
-@click.argument("photo", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("photo", type=click.Path(readable=False, path_type=Path))
 @click.option("-o", "--output", "out_dir", required=True, type=click.Path(file_okay=False, path_type=Path),
               help="Folder for rectified.png, regularized.png, grid.png and prepare.json (created if needed).")
-@click.option("--pattern", "pattern_file", type=click.Path(dir_okay=False, path_type=Path),
+@click.option("--pattern", "pattern_file", type=click.Path(dir_okay=False, readable=False, path_type=Path),
               help="A known weave pattern (params .json, .wif weaving draft, or a text file of 0/1 rows): its "
                    "repeat is used where the photo shows a shorter one, as `weavecap fit --pattern` does.")
 @force_option
@@ -47,7 +47,7 @@ def prepare(photo: Path, out_dir: Path, pattern_file: Path | None, force: bool, 
       for f in photos/*.jpg; do weavecap prepare "$f" -o "out/$(basename "$f" .jpg)" -q; done
     """
     from weavecap.errors import InputError, PhotoError
-    from weavecap.io import atomic_write_text, refuse_overwrite
+    from weavecap.io import check_writable, folder_lock, not_an_input, refuse_overwrite, write_result_set
     from weavecap.patterns import load_pattern
     from weavecap.photo import load_photo, save_png
     from weavecap.prepare import PrepareConfig, Rejected, prepare_photo
@@ -56,8 +56,10 @@ def prepare(photo: Path, out_dir: Path, pattern_file: Path | None, force: bool, 
         if not quiet and verbose >= level:
             click.echo(f"weavecap prepare: {message}", err=True)
 
-    if out_dir.exists() and not out_dir.is_dir():
-        raise InputError(f"{out_dir}: exists and is not a folder; give a folder name for -o")
+    if not_an_input(photo, "photo"):
+        raise InputError(not_an_input(photo, "photo") + " (nothing was written)")
+    check_writable(out_dir, folder=True)
+    click.get_current_context().with_resource(folder_lock(out_dir))  # held to the end of the command
     for name in OUTPUTS:
         refuse_overwrite(out_dir / name, force=force)
 
@@ -78,13 +80,12 @@ def prepare(photo: Path, out_dir: Path, pattern_file: Path | None, force: bool, 
         **result.to_json(),
     }
     say("writing " + ", ".join(OUTPUTS))
-    out_dir.mkdir(parents=True, exist_ok=True)
-    save_png(out_dir / "rectified.png", result.rectification.image)
-    save_png(out_dir / "regularized.png", result.regularized.image)
-    save_png(out_dir / "grid.png", result.grid_overlay())
     report["timings_s"]["with_io"] = round(time.perf_counter() - t0, 4)
-    # prepare.json last: it is what says the set is complete
-    atomic_write_text(out_dir / "prepare.json", json.dumps(report, indent=1) + "\n")
+    # one result set, prepare.json last: it is what says the set is complete
+    write_result_set(out_dir, {"rectified.png": lambda path: save_png(path, result.rectification.image),
+                               "regularized.png": lambda path: save_png(path, result.regularized.image),
+                               "grid.png": lambda path: save_png(path, result.grid_overlay())},
+                     record=("prepare.json", json.dumps(report, indent=1) + "\n"), outputs=OUTPUTS)
     g = result.grid
     say(f"turned {result.rectification.rotation_deg:+.2f}°, pitch {g.pitch_px[0]:.2f} × {g.pitch_px[1]:.2f} px, "
         f"repeat {g.yarns[0]} wefts × {g.yarns[1]} warps ({g.repeat_px[0]:.1f} × {g.repeat_px[1]:.1f} px), "

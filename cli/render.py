@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import sys
+import time
 from pathlib import Path
 
 import click
@@ -39,7 +40,7 @@ def _mode_help() -> str:
 
 
 @click.command(context_settings={"max_content_width": 100})
-@click.argument("inputs", nargs=-1, required=True, type=click.Path(dir_okay=False, path_type=Path),
+@click.argument("inputs", nargs=-1, required=True, type=click.Path(readable=False, path_type=Path),
                 metavar="PARAMS.json... MESH")
 @click.option("-o", "--output", "out", required=True, type=click.Path(path_type=Path),
               help="Image to write (.png sRGB, .exr linear, .tif 16-bit); with several PARAMS, a folder "
@@ -113,7 +114,7 @@ def render(inputs, out, mode, spp, size, view, camera, fov_deg, margin, light, g
       weavecap render fabric.json scan.ply -o scan.png --units mm --object Shirt --json
     """
     from weavecap.errors import InputError
-    from weavecap.io import refuse_overwrite
+    from weavecap.io import check_writable, folder_lock, refuse_overwrite
     from weavecap.photo import supported_output
 
     if len(inputs) < 2:
@@ -124,11 +125,14 @@ def render(inputs, out, mode, spp, size, view, camera, fov_deg, margin, light, g
         if out.suffix.lower() in IMAGE_SUFFIXES or out.is_file():
             raise InputError(f"{out}: with several PARAMS files, -o names a folder (one image each)")
         check_batch_options(jobs, scheduler)
+        check_writable(out, folder=True)
+        click.get_current_context().with_resource(folder_lock(out))  # before the mesh: held to the end
     else:
         for name, given in (("--sheet", sheet), ("--jobs", jobs > 1), ("--scheduler", scheduler)):
             if given:
                 raise InputError(f"{name} needs several PARAMS files")
         supported_output(out)
+        check_writable(out, folder=False)
         refuse_overwrite(out, force=force)
 
     from weavecap.render.job import load_fabric
@@ -153,19 +157,22 @@ def render(inputs, out, mode, spp, size, view, camera, fov_deg, margin, light, g
 
     from weavecap.render.mesh import load_mesh
 
-    mesh = load_mesh(mesh_file, units=units, object_name=object_name)
+    t0 = time.perf_counter()
+    mesh = load_mesh(mesh_file, units=units, object_name=object_name,
+                     progress=lambda step: say(f"{mesh_file}: {step}"))
+    mesh_s = time.perf_counter() - t0
     say(f"{mesh_file}: {len(mesh.faces)} triangles, {', '.join(mesh.objects)}, UVs from the {mesh.uv_source}, "
-        f"stretch {mesh.stretch['before']:.3f} -> {mesh.stretch['after']:.3f}", level=1)
+        f"stretch {mesh.stretch['before']:.3f} -> {mesh.stretch['after']:.3f}, read in {mesh_s:.1f} s", level=1)
     for note in mesh.notes:
         say(f"{mesh_file}: {note}")
     mesh_info = {"path": str(mesh_file), "triangles": int(len(mesh.faces)), "objects": mesh.objects,
                  "uv_source": mesh.uv_source, "stretch": mesh.stretch, "area_m2": mesh.area,
-                 "bounds_m": mesh.bounds.tolist(), "notes": mesh.notes}
+                 "bounds_m": mesh.bounds.tolist(), "notes": mesh.notes, "seconds": round(mesh_s, 3)}
     if many:
         doc, status = _render_batch(params_files, mesh, options, pattern, out, sheet=sheet, jobs=jobs,
                                     scheduler=scheduler, force=force, say=say)
     else:
-        doc, status = _render_one(params_files[0], fabric, mesh, options, out,
+        doc, status = _render_one(params_files[0], fabric, mesh, options, out, mesh_s=mesh_s, force=force,
                                   progress=not quiet and (sys.stderr.isatty() or verbose > 0), say=say)
     if as_json:
         click.echo(json.dumps({"mesh": mesh_info, **doc}, indent=1))
@@ -174,10 +181,12 @@ def render(inputs, out, mode, spp, size, view, camera, fov_deg, margin, light, g
 
 
 def _wrote(output, info: dict, timings: dict) -> str:
-    """The line that says an image was written: what, how and how long."""
+    """The line that says an image was written: what, how and how long (with the mesh's
+    reading, where the image is the command's only one)."""
     w, h = info["size"]
+    mesh = f"mesh {timings['mesh']:.1f} s, " if "mesh" in timings else ""
     return (f"wrote {output} ({w}x{h}, {info['mode']}, {info['spp']} spp, pitch {info['pitch_mm']:g} mm, "
-            f"{timings['total']:.1f} s: bake {timings['bake']:.1f} s, render {timings['render']:.1f} s)")
+            f"{timings['total']:.1f} s: {mesh}bake {timings['bake']:.1f} s, render {timings['render']:.1f} s)")
 
 
 def _fold_summary(detail: dict) -> str:
@@ -190,8 +199,10 @@ def _fold_summary(detail: dict) -> str:
             + "".join(f"; {note}" for note in detail["notes"]))
 
 
-def _render_one(params_file, fabric, mesh, options, out, *, progress: bool, say) -> tuple[dict, int]:
-    """One params file straight to the image ``out`` (no record, no summary)."""
+def _render_one(params_file, fabric, mesh, options, out, *, mesh_s: float, force: bool, progress: bool,
+                say) -> tuple[dict, int]:
+    """One params file straight to the image ``out`` (no record, no summary); ``mesh_s``: the
+    seconds the mesh took to read, counted in the total."""
     from weavecap.photo import save_image
     from weavecap.render.run import render_fabric
 
@@ -202,7 +213,9 @@ def _render_one(params_file, fabric, mesh, options, out, *, progress: bool, say)
                 click.echo("", err=True)
 
     result = render_fabric(fabric, mesh, options, progress=show)
-    save_image(out, result.image)
+    result.info["timings"]["mesh"] = mesh_s
+    result.info["timings"]["total"] += mesh_s
+    save_image(out, result.image, overwrite=force)
     for note in result.info["notes"]:
         say(f"{params_file}: {note}")
     if result.info.get("fold_detail"):
@@ -233,7 +246,7 @@ def _render_batch(params_files, mesh, options, pattern, out, *, sheet: bool, job
             say(f"{where} {params_file}: {event.line['status']}: {record.get('reason')}", error=True)
 
     job = RenderJob(mesh=mesh, options=options, pattern=pattern)
-    batch = wbatch.plan(job, params_files, out, force=force, names=folder_names(params_files))
+    batch = wbatch.plan(job, params_files, out, force=force, names=folder_names(params_files), reserved=(SHEET,))
     result = wbatch.run(batch, jobs=jobs, scheduler=scheduler, on_event=report)
     on_sheet = write_sheet(batch, out / SHEET) if sheet else []
     if on_sheet:

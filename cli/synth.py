@@ -11,7 +11,7 @@ from .options import force_option, parse_tiles, pattern_option, quiet_option, se
 
 
 @click.command(context_settings={"max_content_width": 100})
-@click.argument("params_file", metavar="PARAMS.json", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("params_file", metavar="PARAMS.json", type=click.Path(readable=False, path_type=Path))
 @click.option("-o", "--output", "output", required=True, type=click.Path(dir_okay=False, path_type=Path),
               help="Photo to write: .png (sRGB, 8 bit), .exr (linear) or .tif/.tiff (16 bit).")
 @click.option("--tiles", default="4x4", show_default=True, callback=parse_tiles,
@@ -51,10 +51,11 @@ def synth(params_file: Path, output: Path, tiles, size, light, spp, rotate_deg, 
       weavecap synth fabric.json -o draft.png --pattern draft.wif
     """
     from weavecap import params as wparams
-    from weavecap.io import refuse_overwrite
+    from weavecap.io import check_writable, refuse_overwrite
     from weavecap.photo import save_image, supported_output
 
-    supported_output(output)  # fail on a bad extension before any work
+    supported_output(output)  # fail on a bad extension, an unwritable place or an existing output before any work
+    check_writable(output, folder=False)
     refuse_overwrite(output, force=force)
     fabric = wparams.load(params_file)
     if pattern_file is not None:
@@ -74,7 +75,7 @@ def synth(params_file: Path, output: Path, tiles, size, light, spp, rotate_deg, 
 
         pitch_px = image.shape[1] / (tiles[1] * fabric.shape[1])  # yarn pitch in the image, px
         image = add_noise(image, fabric.noise, pitch_px=pitch_px, seed=seed)
-    save_image(output, image)
+    save_image(output, image, overwrite=force)
     if not quiet:
         h, w = image.shape[:2]
         click.echo(f"wrote {output} ({w}x{h}, {fabric.shape[0]}x{fabric.shape[1]} pattern, "

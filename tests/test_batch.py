@@ -88,13 +88,15 @@ def test_a_dask_attempt_counts_its_starts_and_ends_failed_after_the_retry(tmp_pa
     runs = []
     monkeypatch.setattr(FitJob, "run", lambda self, source, folder: runs.append(source) or {"status": "ok"})
     job, folder = FitJob(), tmp_path / "item"
-    assert batch.counted_attempt(job, "a.png", str(folder)) == ({"status": "ok"}, "ok")
-    assert runs == ["a.png"] and not folder.exists()  # nothing written, nothing left behind
+    photo = tmp_path / "a.png"
+    photo.write_bytes(b"a photo")  # an input that exists (a missing one is invalid before it runs)
+    assert batch.counted_attempt(job, str(photo), str(folder)) == ({"status": "ok"}, "ok")
+    assert runs == [str(photo)] and not folder.exists()  # nothing written, nothing left behind
 
     folder.mkdir()
     (folder / batch.STARTS).write_text(str(batch.RETRIES + 1))  # started twice, each time its worker died
-    record, status = batch.counted_attempt(job, "a.png", str(folder))
-    assert status == "failed" and runs == ["a.png"]
+    record, status = batch.counted_attempt(job, str(photo), str(folder))
+    assert status == "failed" and runs == [str(photo)]
     assert "died on each of 2 tries" in record["reason"]
     assert json.loads((folder / job.record).read_text())["status"] == "failed"
     assert not (folder / batch.STARTS).exists()

@@ -16,7 +16,7 @@ from weavecap.errors import (OUTCOMES, BackendError, InputError, ParamsError, Ph
     (InputError("x"), "invalid", 2),
     (ParamsError("x", field="plies"), "invalid", 2),
     (PhotoError("x"), "rejected", 3),
-    (BackendError("x"), "failed", 1),
+    (BackendError("x"), "invalid", 2),  # a requirement to install: the message says which
     (WeavecapError("x"), "failed", 1),
     (RuntimeError("x"), "failed", 1),
     (KeyboardInterrupt(), "interrupted", 130),

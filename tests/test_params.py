@@ -15,6 +15,7 @@ from hypothesis import strategies as st
 
 from weavecap import params
 from weavecap.errors import InputError, ParamsError
+from weavecap.photo import save_png
 
 FIXTURE_PARAMS = Path(__file__).resolve().parents[1] / "fixtures" / "params"
 FIXTURES = sorted(FIXTURE_PARAMS.glob("*.json"))
@@ -141,8 +142,8 @@ def test_every_bad_file_is_refused(bad_params):
 
 def test_missing_file(tmp_path):
     """A path that is not there, or a folder, is an input error naming the path."""
-    for path in (tmp_path / "nope.json", tmp_path):
-        with pytest.raises(ParamsError, match="not found") as err:
+    for path, words in ((tmp_path / "nope.json", "not found"), (tmp_path, "is a folder")):
+        with pytest.raises(ParamsError, match=words) as err:
             params.load(path)
         assert str(path) in str(err.value)
         assert isinstance(err.value, InputError)
@@ -160,7 +161,7 @@ def test_texture_paths_are_relative_to_the_params_file(tmp_path):
     """A texture given relative to its params file loads, and stays right when saved elsewhere."""
     (tmp_path / "tex").mkdir()
     texture = tmp_path / "tex" / "warp.png"
-    texture.write_bytes(b"png")
+    save_png(texture, np.full((8, 8, 3), 0.5, np.float32))  # textures are read when the params are
     doc = json.loads((FIXTURE_PARAMS / "plain.json").read_text())
     doc["warp"]["body_reflection"] = "tex/warp.png"
     (tmp_path / "in.json").write_text(json.dumps(doc))

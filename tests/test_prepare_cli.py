@@ -99,8 +99,8 @@ def test_rejection_exits_3_and_keeps_what_was_there(tmp_path):
 
 
 def test_missing_and_unreadable_photos(tmp_path):
-    res = _run(tmp_path / "nope.jpg", "-o", tmp_path / "o")
-    assert res.exit_code == 3 and "nope.jpg" in res.output and "Traceback" not in res.output
+    res = _run(tmp_path / "nope.jpg", "-o", tmp_path / "o")  # a missing file is a usage error, as for fit
+    assert res.exit_code == 2 and "nope.jpg: no such photo" in res.output and "Traceback" not in res.output
     bad = tmp_path / "bad.jpg"
     bad.write_bytes(b"not a jpeg at all")
     res = _run(bad, "-o", tmp_path / "o")

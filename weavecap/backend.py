@@ -6,7 +6,10 @@ imported: a library already loaded in the process, else ``DRJIT_LIBLLVM_PATH``, 
 19 are unusable: 14 is refused and 15/16 abort on ``llvm.minimum`` (``../shared/notes/mitsuba.md``).
 So this module finds the newest libLLVM >= 19 — the PyPI wheel ``karellen-llvm-core`` inside
 the environment (``<prefix>/lib/libLLVM.so.23.1``) or the system's (Debian ``libllvm19``) —
-and sets ``DRJIT_LIBLLVM_PATH`` to it before the first ``import drjit``.
+and sets ``DRJIT_LIBLLVM_PATH`` to it before the first ``import drjit``. Where Dr.Jit was
+imported first (a script that imports drjit, then weavecap) or the variable names an older
+library, :func:`configure_llvm` refuses with the fix instead of letting a kernel abort the
+process (:func:`loaded_llvm` reads which library Dr.Jit loaded).
 
 Every module of weavecap that needs Mitsuba calls :func:`mitsuba` instead of importing it.
 """
@@ -85,18 +88,67 @@ def find_llvm() -> LLVMCandidate:
     raise BackendError(f"No libLLVM >= {MIN_LLVM} for Dr.Jit's CPU backend (found: {found}).\n{INSTALL_HINT}")
 
 
+def loaded_llvm() -> LLVMCandidate | None:
+    """The libLLVM already mapped into this process (``/proc/self/maps``), or None."""
+    try:
+        with open("/proc/self/maps", encoding="utf-8", errors="replace") as fh:
+            paths = sorted({line.split()[-1] for line in fh if "/libLLVM" in line})
+    except OSError:
+        return None
+    path = next((p for p in paths if _VERSION_RE.search(os.path.basename(p))), None)
+    return None if path is None else LLVMCandidate(path=path, major=_major_from_name(os.path.basename(path)))
+
+
+def _too_old(what: str, cand: LLVMCandidate) -> BackendError:
+    try:
+        good = f"DRJIT_LIBLLVM_PATH={find_llvm().path}"
+    except BackendError:
+        good = "DRJIT_LIBLLVM_PATH=<a libLLVM 19 or newer>"
+    return BackendError(f"{what} libLLVM {cand.major} ({cand.path}); Dr.Jit's CPU backend needs {MIN_LLVM} or newer "
+                        f"(older ones abort the process on weavecap's kernels). {{fix}} e.g. {good}.\n{INSTALL_HINT}")
+
+
 def configure_llvm() -> str:
-    """Set ``DRJIT_LIBLLVM_PATH`` (unless the user set it) and return the path in force."""
+    """Set ``DRJIT_LIBLLVM_PATH`` (unless the user set it) and return the path in force.
+
+    Raises
+    ------
+    BackendError
+        (exit 2) ``DRJIT_LIBLLVM_PATH`` is not a file or names a libLLVM older than 19; or
+        Dr.Jit was imported before weavecap and loaded such an old one (it loads its libLLVM
+        on import, and a kernel then aborts the whole process): the message says the fix.
+    """
     user = os.environ.get("DRJIT_LIBLLVM_PATH")
     if user:
         if not os.path.isfile(user):
             raise BackendError(f"DRJIT_LIBLLVM_PATH={user} is not a file.\n{INSTALL_HINT}")
+        given = LLVMCandidate(user, _major_from_name(os.path.basename(user))
+                              or _major_from_name(os.path.basename(os.path.realpath(user))))
+        if given.major is not None and given.major < MIN_LLVM:
+            raise BackendError(str(_too_old("DRJIT_LIBLLVM_PATH names", given)).replace(
+                "{fix}", "Point it at a newer one, or unset it and weavecap finds one,"))
         return user
-    if "drjit" in sys.modules:  # too late to choose; report what Dr.Jit was given
-        return os.environ.get("DRJIT_LIBLLVM_PATH", "")
+    if "drjit" in sys.modules:  # too late to choose: check what Dr.Jit loaded
+        loaded = loaded_llvm()
+        if loaded is not None and loaded.major is not None and loaded.major < MIN_LLVM:
+            raise BackendError(str(_too_old("Dr.Jit was imported before weavecap and loaded", loaded)).replace(
+                "{fix}", "Import weavecap before drjit and mitsuba (it points Dr.Jit at a usable library), or set "
+                         "the variable before Python starts,"))
+        return loaded.path if loaded is not None else ""
     path = find_llvm().path
     os.environ["DRJIT_LIBLLVM_PATH"] = path
     return path
+
+
+def prefer_llvm() -> None:
+    """:func:`configure_llvm` where it can be done quietly: on ``import weavecap``, before any
+    ``import drjit`` (Dr.Jit loads its libLLVM on import). Problems are left for
+    :func:`mitsuba` to report, when a render needs the library."""
+    if "drjit" not in sys.modules and not os.environ.get("DRJIT_LIBLLVM_PATH"):
+        try:
+            configure_llvm()
+        except BackendError:
+            pass
 
 
 _STATE: dict[str, object] = {}

@@ -5,10 +5,14 @@ DESIGN.md's contract for a command that takes several inputs (``weavecap fit PHO
 ``OUT/<stem>`` each (``<stem>-2``, ... when stems repeat, or names the command gives) and
 append one line per input to ``OUT/summary.jsonl`` as each finishes. A bad input does not stop
 the batch; the batch exits with its most severe outcome (:data:`weavecap.errors.OUTCOMES`).
-Nothing is lost: a folder holding another run's results is refused unless ``force``; run again
-to resume — finished inputs (their record says ``ok`` or ``rejected`` and names the same file
-by its SHA-256) are skipped, failed ones are tried again, and each input keeps exactly one
-summary line.
+A missing file or a folder among several inputs is ``invalid`` in its summary line, and the
+others run. Nothing escapes ``-o``: folder names are made plain (:func:`weavecap.io.folder_name`:
+a photo ``...png`` does not write into ``OUT/..``). Nothing is lost: a folder holding another
+run's results is refused unless ``force``; each input's results are written as one set
+(:func:`weavecap.io.write_result_set`); run again to resume — finished inputs (their record
+says ``ok`` or ``rejected`` and names the same file by its SHA-256) are skipped, failed and
+interrupted ones are tried again, and each input keeps exactly one summary line. The caller
+holds ``OUT``'s lock (:func:`weavecap.io.folder_lock`) from :func:`plan` to the end of :func:`run`.
 
 What is done to each input is a :class:`Job` (``weavecap.pipeline.FitJob`` for ``fit``,
 ``weavecap.render.job.RenderJob`` for ``render``); this module only plans, runs and records.
@@ -23,6 +27,7 @@ import contextlib
 import json
 import logging
 import os
+import signal
 import time
 import uuid
 from dataclasses import dataclass, field
@@ -30,7 +35,7 @@ from pathlib import Path
 from typing import Callable, Iterable, Iterator, Protocol
 
 from .errors import InputError, WeavecapError, outcome, outcome_of_status, worst_exit
-from .io import atomic_write_text
+from .io import LOCK, atomic_write_text, folder_name, inside, loads_json, not_an_input, staged, write_result_set
 
 SUMMARY = "summary.jsonl"
 FINISHED = ("ok", "rejected")  # statuses of a record that a resumed batch skips
@@ -119,28 +124,36 @@ class Result:
         return worst_exit(line["exit"] for line in self.lines)
 
 
-def folders(sources: list[Path], out: Path, names: list[str] | None = None) -> list[Path]:
-    """One output folder per input: ``out`` itself for one, ``out/<stem>[-k]`` for several, or
-    ``out/<name>`` of ``names`` (one per input, each different) where the caller names them."""
+def folders(sources: list[Path], out: Path, names: list[str] | None = None, *, fallback: str = "input",
+            reserved: tuple[str, ...] = ()) -> list[Path]:
+    """One output folder per input: ``out`` itself for one, ``out/<stem>`` for several, or
+    ``out/<name>`` of ``names`` (one per input) where the caller names them.
+
+    Each name is made plain (:func:`weavecap.io.folder_name`: ``..`` becomes ``fallback``, a
+    name in ``reserved`` or :data:`SUMMARY` gets a ``_``) and numbered ``-2``, ``-3``, ... where
+    it repeats, so every input has its own folder inside ``out``."""
     if len(sources) == 1:
         return [out]
-    if names is not None:
-        if len(names) != len(sources) or len(set(names)) != len(names):
-            raise ValueError(f"folders: {len(sources)} inputs need as many different names, not {names}")
-        return [out / name for name in names]
-    seen: dict[str, int] = {}
+    stems = [p.stem for p in sources] if names is None else list(names)
+    if len(stems) != len(sources):
+        raise ValueError(f"folders: {len(sources)} inputs need as many names, not {names}")
+    used: set[str] = set()
     result = []
-    for p in sources:
-        k = seen.get(p.stem, 0)
-        seen[p.stem] = k + 1
-        result.append(out / (p.stem if k == 0 else f"{p.stem}-{k + 1}"))
+    for stem in stems:
+        name = folder_name(stem, fallback=fallback, reserved=(SUMMARY, LOCK, *reserved))
+        k, unique = 1, name
+        while unique in used:
+            k += 1
+            unique = f"{name}-{k}"
+        used.add(unique)
+        result.append(inside(out, out / unique))
     return result
 
 
 def read_record(job: Job, folder: Path) -> dict | None:
     """The record ``job`` wrote in ``folder``, or None (none there, or not a JSON object)."""
     try:
-        record = json.loads((folder / job.record).read_text())
+        record = loads_json((folder / job.record).read_text())
     except (OSError, ValueError):
         return None
     return record if isinstance(record, dict) else None
@@ -155,39 +168,63 @@ def _same_input(record: dict, source: Path) -> bool:
         return False
 
 
+def _refusal(job: Job, item: Item, record: dict | None) -> str:
+    """Why ``item.folder``'s files are not this run's to replace without ``--force``."""
+    held = ", ".join(name for name in job.outputs if (item.folder / name).exists())
+    source = record.get("input") if record is not None else None
+    if record is None:
+        what = (f"holds {held} but no finished {job.record}: not a weavecap result of this input (files of "
+                "something else, or of an older weavecap interrupted)")
+    elif _same_input(record, item.source):
+        what = f"holds results of another run of this file, whose {job.record} says {record.get('status')!r}"
+    else:
+        of = repr(source.get("path")) if isinstance(source, dict) else "an unknown file"
+        what = (f"holds results of another run: its {job.record} is of {of}, a different file from "
+                f"{str(item.source)!r} (compared by SHA-256)")
+    return f"{item.folder}: {what}; use --force to replace them or choose another -o folder (nothing was written)"
+
+
 def plan(job: Job, sources: Iterable[Path], out: Path, *, force: bool = False,
-         names: list[str] | None = None) -> Batch:
+         names: list[str] | None = None, reserved: tuple[str, ...] = ()) -> Batch:
     """Check a batch before any work and find what an earlier run finished. Writes nothing.
 
-    ``names``: the inputs' folder names under ``out`` (several inputs), instead of their stems
-    (:func:`folders`).
+    ``names``: the inputs' folder names under ``out`` (several inputs), instead of their stems;
+    ``reserved``: names the command keeps at the top of ``out`` (:func:`folders`). With several
+    inputs, one that is missing or a folder stays in the batch and ends ``invalid``
+    (:func:`attempt`); a finished input (its record ``ok`` or ``rejected``, of the same file)
+    is skipped; a folder whose writing was interrupted (:func:`weavecap.io.staged`) is redone.
 
     Raises
     ------
     InputError
-        ``out`` is a file; an input is missing; a folder holds results of another run (of
-        another input, or unfinished) and ``force`` is not given.
+        ``out`` is a file; the one input is missing; a folder holds results of another run
+        (of another input, or files that are not a finished result) and ``force`` is not given.
     """
     sources = [Path(s) for s in sources]
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise InputError(f"{out}: exists and is not a folder; give a folder name for -o")
-    for p in sources:
-        if not p.is_file():
-            raise InputError(f"{p}: no such {job.key}; check the path (nothing was written)")
-    items = [Item(p, f) for p, f in zip(sources, folders(sources, out, names))]
-    several = len(items) > 1
+    if len(sources) == 1 and not_an_input(sources[0], job.key):
+        raise InputError(not_an_input(sources[0], job.key) + " (nothing was written)")
+    items = [Item(p, f) for p, f in zip(sources, folders(sources, out, names, fallback=job.key, reserved=reserved))]
+    where = [out / SUMMARY] if len(items) > 1 else []
+    for path in where + [item.folder / name for item in items for name in job.outputs]:
+        if path.exists() and not path.is_file():
+            raise InputError(f"{path}: is a folder (or not a regular file) where weavecap writes a file; move it away "
+                             "(nothing was written)")
     todo, done = [], []
     for item in items:
+        if not item.source.is_file():  # invalid or rejected when its turn comes; its folder is not touched
+            todo.append(item)
+            continue
         record = None if force else read_record(job, item.folder)
         same = record is not None and _same_input(record, item.source)
-        if several and same and record.get("status") in FINISHED:
+        if same and record.get("status") in FINISHED:
             done.append((item, record))
             continue
-        retry = same and record.get("status") == "failed"  # our own failure record: try again
+        retry = (same and record.get("status") == "failed") or staged(item.folder)  # ours: try again
         if not force and not retry and any((item.folder / name).exists() for name in job.outputs):
-            raise InputError(f"{item.folder}: holds results of another run; use --force to overwrite them or choose "
-                             "another -o folder (nothing was written)")
+            raise InputError(_refusal(job, item, record))
         todo.append(item)
     return Batch(job=job, out=out, items=items, todo=todo, done=done, force=force)
 
@@ -216,16 +253,25 @@ def _set_threads(threads: int | None) -> None:
         drjit.set_thread_count(threads)
 
 
+def write_record(job: Job, folder: str | Path, record: dict) -> None:
+    """Write a failure's record as the folder's whole result set: an earlier run's outputs
+    go (:func:`weavecap.io.write_result_set`), so no old params.json outlives it."""
+    write_result_set(folder, {}, record=(job.record, json.dumps(record, indent=1) + "\n"), outputs=job.outputs)
+
+
 def attempt(job: Job, source: str, folder: str, threads: int | None = None) -> tuple[dict, str]:
     """Run ``job`` on one input; never raises but KeyboardInterrupt (a failure is a record).
 
-    Returns (record, status). An error a user caused (``invalid``) writes nothing; any other
-    error writes ``job.failure_record`` as the folder's record. Set ``WEAVECAP_DEBUG=1`` to let
-    unexpected errors through with their traceback.
+    Returns (record, status). An error a user caused (``invalid``: a missing input among
+    several, an option that does not fit it) writes nothing; any other error writes
+    ``job.failure_record`` as the folder's record. Set ``WEAVECAP_DEBUG=1`` to let unexpected
+    errors through with their traceback.
     """
     _set_threads(threads)
     t0 = time.perf_counter()
     try:
+        if not_an_input(Path(source), job.key):
+            raise InputError(not_an_input(Path(source), job.key))
         record = job.run(source, folder)
         return record, record["status"]
     except Exception as exc:  # noqa: BLE001 - one bad input must not stop a batch
@@ -235,8 +281,7 @@ def attempt(job: Job, source: str, folder: str, threads: int | None = None) -> t
         reason = str(exc) if isinstance(exc, WeavecapError) else f"unexpected error: {type(exc).__name__}: {exc}"
     record = job.failure_record(source, result.status, reason, time.perf_counter() - t0)
     if result.status != "invalid":
-        Path(folder).mkdir(parents=True, exist_ok=True)
-        atomic_write_text(Path(folder) / job.record, json.dumps(record, indent=1) + "\n")
+        write_record(job, folder, record)
     return record, result.status
 
 
@@ -262,7 +307,7 @@ def _start_summary(batch: Batch, lines: list[dict]) -> None:
     if path.exists():
         for raw in path.read_text().splitlines():
             try:
-                source = json.loads(raw)[batch.job.key]
+                source = loads_json(raw)[batch.job.key]
             except (ValueError, KeyError, TypeError):
                 continue
             if source in redo or source in recorded:
@@ -303,8 +348,8 @@ def counted_attempt(job: Job, source: str, folder: str, threads: int | None = No
     starts = int(marker.read_text()) if marker.is_file() else 0
     if starts > RETRIES:
         record = job.failure_record(source, "failed", _lost_reason(starts), 0.0)
-        atomic_write_text(Path(folder) / job.record, json.dumps(record, indent=1) + "\n")
         marker.unlink(missing_ok=True)
+        write_record(job, folder, record)
         return record, "failed"
     made = not marker.parent.exists()
     marker.parent.mkdir(parents=True, exist_ok=True)
@@ -323,12 +368,27 @@ def _serial(batch: Batch, on_start: Callable[[Item, int], None]) -> Outcomes:
         yield (item, *attempt(batch.job, str(item.source), str(item.folder)))
 
 
+def _die_with_parent(parent: int) -> None:
+    """Initializer of a ``--jobs`` worker process: the kernel kills it (SIGKILL) when the
+    weavecap process that started it ends, however it ends (``kill -9`` included); a worker
+    left behind would go on fitting, ~620 MB each, for nobody."""
+    import ctypes
+
+    pr_set_pdeathsig = 1  # <sys/prctl.h>
+    ctypes.CDLL(None, use_errno=True).prctl(pr_set_pdeathsig, signal.SIGKILL)
+    if os.getppid() != parent:  # it ended before the line above
+        os._exit(1)
+
+
 def _processes(batch: Batch, jobs: int) -> Outcomes:
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
     threads = max(1, (os.cpu_count() or 1) // jobs)
-    with ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
+    # the death signal follows the thread that starts a worker: the pool starts them in submit(),
+    # from this thread, which lives until the pool is shut down
+    with ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("spawn"),
+                             initializer=_die_with_parent, initargs=(os.getpid(),)) as pool:
         futures = {pool.submit(attempt, batch.job, str(item.source), str(item.folder), threads): item
                    for item in batch.todo}
         for future in as_completed(futures):
@@ -349,6 +409,50 @@ def local_workers(address: str) -> int | None:
     if not n.isdigit() or not 1 <= int(n) <= 64:
         raise InputError(f"--scheduler {address}: local:N needs a number of workers N from 1 to 64, e.g. local:2")
     return int(n)
+
+
+#: the TLS settings of Dask's configuration a ``tls://`` scheduler needs (``distributed.comm.tls.``)
+TLS_KEYS = ("ca-file", "client.cert", "client.key")
+
+
+def scheduler_security(address: str):
+    """Check a ``--scheduler`` address before any work; the Dask ``Security`` to connect with.
+
+    ``local:N``, ``tcp://host:port`` (or ``host:port``): None. ``tls://host:port``: a
+    ``distributed.security.Security`` from Dask's configuration (``distributed.comm.tls.ca-file``,
+    ``.client.cert``, ``.client.key``: ``~/.config/dask/distributed.yaml``, or the variables
+    ``DASK_DISTRIBUTED__COMM__TLS__CA_FILE`` ...), which must name files that exist.
+
+    Raises
+    ------
+    InputError
+        Another protocol (``ucx://`` needs ucx-py and a UCX build of Dask; ``ws://``, ``inproc://``
+        are not for batches), ``tls://`` without its settings, or a ``local:`` count out of range.
+    """
+    if local_workers(address) is not None:
+        return None
+    scheme = address.split("://", 1)[0].lower() if "://" in address else "tcp"
+    if scheme == "tcp":
+        return None
+    if scheme != "tls":
+        raise InputError(f"--scheduler {address}: weavecap connects to Dask schedulers over tcp:// or tls:// "
+                         f"only, not {scheme}://; give tcp://host:8786, tls://host:8786 (with Dask's TLS settings) "
+                         "or local:N (nothing was written)")
+    import dask
+    from distributed.security import Security
+
+    settings = {key: dask.config.get(f"distributed.comm.tls.{key}", None) for key in TLS_KEYS}
+    missing = [f"distributed.comm.tls.{key}" for key, value in settings.items() if not value]
+    absent = [f"{value} (distributed.comm.tls.{key})" for key, value in settings.items()
+              if value and not Path(value).is_file()]
+    if missing or absent:
+        what = (f"Dask's configuration lacks {', '.join(missing)}" if missing else
+                f"these files do not exist: {', '.join(absent)}")
+        raise InputError(f"--scheduler {address}: a tls:// scheduler needs the CA certificate and this client's "
+                         f"certificate and key: {what}. Set them in ~/.config/dask/distributed.yaml or as "
+                         "DASK_DISTRIBUTED__COMM__TLS__CA_FILE, ..._CLIENT__CERT, ..._CLIENT__KEY (see "
+                         "docs/reliability.md; nothing was written)")
+    return Security(require_encryption=True)
 
 
 def _tell_scheduler(dask_scheduler, retries: int) -> None:
@@ -375,8 +479,8 @@ def _dask_client(address: str) -> Iterator[tuple[object, int | None]]:
             client = stack.enter_context(Client(cluster))
             threads = max(1, (os.cpu_count() or 1) // n)
         else:
-            try:
-                client = stack.enter_context(Client(address))  # distributed.comm.timeouts.connect
+            try:  # distributed.comm.timeouts.connect
+                client = stack.enter_context(Client(address, security=scheduler_security(address)))
             except (OSError, TimeoutError, ValueError) as exc:
                 raise InputError(f"--scheduler {address}: cannot reach a Dask scheduler there ({exc}); start one "
                                  "with `dask scheduler` (see the README), or use local:N (nothing was written)") from None
@@ -424,8 +528,7 @@ def _dask(batch: Batch, client, threads: int | None) -> Outcomes:
             else:
                 reason = f"unexpected error: {type(exc).__name__}: {exc}"
             record = batch.job.failure_record(str(item.source), "failed", reason, time.perf_counter() - t0)
-            item.folder.mkdir(parents=True, exist_ok=True)
-            atomic_write_text(item.folder / batch.job.record, json.dumps(record, indent=1) + "\n")
+            write_record(batch.job, item.folder, record)
             outcome_ = (item, record, "failed")
         future.release()
         slots = max(1, sum(client.nthreads().values()))

@@ -2,8 +2,8 @@
 
 :data:`OUTCOMES` is the only place that decides how a command, or one photo of a batch, ends:
 the error raised → the status written in ``report.json`` / ``summary.jsonl`` and the exit
-status (DESIGN.md: 0 all done; 2 usage error or invalid input; 3 a photo was rejected; 1
-anything unexpected). The command layer (``cli/main.py``) and the batch runner
+status (DESIGN.md: 0 all done; 2 usage error, invalid input, or a missing requirement the message
+names; 3 a photo was rejected; 1 anything unexpected). The command layer (``cli/main.py``) and the batch runner
 (:mod:`weavecap.batch`) both look it up; nothing else maps errors to numbers.
 
 The rule: one status per exit status. An input a user gave that does not fit a photo (a
@@ -53,7 +53,10 @@ class PhotoError(WeavecapError):
 
 
 class BackendError(WeavecapError):
-    """No usable rendering backend (libLLVM, Mitsuba variant); the message says what to install."""
+    """No usable rendering backend (libLLVM, Mitsuba variant); the message says what to install.
+
+    Exit 2 like an invalid input: the user fixes it (installs a library, sets a variable) and
+    runs again; nothing is written, and a batch tries the input again next run."""
 
 
 @dataclass(frozen=True)
@@ -75,12 +78,12 @@ class Outcome:
 #: error raised (None: none) → Outcome. The first row whose class matches wins. A batch exits
 #: with its most severe outcome (a rejected photo and an unexpected failure: 1). click's own
 #: usage errors (unknown option or command) exit 2 like ``invalid``.
-OUTCOMES: tuple[tuple[type[BaseException] | None, Outcome], ...] = (
+OUTCOMES: tuple[tuple[type[BaseException] | tuple[type[BaseException], ...] | None, Outcome], ...] = (
     (None, Outcome("ok", exit=0, severity=0)),
-    (InputError, Outcome("invalid", exit=2, severity=1)),
+    ((InputError, BackendError), Outcome("invalid", exit=2, severity=1)),
     (PhotoError, Outcome("rejected", exit=3, severity=2)),
     (KeyboardInterrupt, Outcome("interrupted", exit=130, severity=4)),  # written nowhere: the batch stops
-    (BaseException, Outcome("failed", exit=1, severity=3)),  # BackendError, bugs, a worker that died
+    (BaseException, Outcome("failed", exit=1, severity=3)),  # bugs, a worker that died
 )
 
 _BY_STATUS = {o.status: o for _, o in OUTCOMES}

@@ -90,12 +90,15 @@ def synthesize(noise: dict, shape: tuple[int, int], *, pitch_px: float, seed: in
     """A (H, W) noise tile with the model's spectrum: random phases, amplitude √density.
 
     The tile is periodic (it tiles seamlessly) and its variance is the model's variance within
-    the frequencies the tile can hold (up to Nyquist), so a coarser tile carries less.
+    the frequencies the tile can hold (up to Nyquist), so a coarser tile carries less — and
+    never more than the model's whole variance (the sum of the weights): a Gaussian narrower
+    than a frequency bin, sampled at its peak, would otherwise count its density as variance
+    (a covariance of 1e-12 gave pixel values of 70 000).
     """
     shape = (int(shape[0]), int(shape[1]))
     s = spectrum(noise, shape, pitch_px)
     df = (pitch_px / shape[0]) * (pitch_px / shape[1])
-    target_var = float(np.sum(s) * df)
+    target_var = min(float(np.sum(s) * df), sum(float(g["weight"]) for g in noise.get("gaussians", [])))
     if target_var <= MIN_VARIANCE or shape[0] * shape[1] < 2:
         return np.zeros(shape)
     rng = np.random.default_rng(seed)

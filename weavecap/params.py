@@ -168,6 +168,13 @@ def _dotted(path) -> str:
 
 def _allowed(schema: dict) -> str:
     """The allowed range or values of one schema node, for a message."""
+    if "$ref" in schema:
+        root = _schema()
+        return _allowed(root["$defs"][schema["$ref"].rsplit("/", 1)[-1]])
+    if schema.get("type") == "object" and schema.get("required"):
+        return "an object with " + ", ".join(schema["required"])
+    if "oneOf" in schema:
+        return " or ".join(_allowed(option) for option in schema["oneOf"])
     if "enum" in schema:
         return "one of " + ", ".join(json.dumps(v) for v in schema["enum"])
     if "const" in schema:
@@ -185,6 +192,8 @@ def _allowed(schema: dict) -> str:
     if hi is not None:
         return f"{a_kind} {'<' if hi_s == ')' else '<='} {hi}"
     if "minItems" in schema or "maxItems" in schema:
+        if schema.get("minItems") == schema.get("maxItems") == 3 and schema.get("items", {}).get("maximum") == 1:
+            return "an RGB colour: 3 numbers [r, g, b] in [0, 1]"
         return f"a list of {schema.get('minItems', 0)} to {schema.get('maxItems', 'any number of')} items"
     return a_kind if isinstance(kind, str) else "a valid value"
 
@@ -242,7 +251,12 @@ def _field_valid(key: str, value: Any) -> bool:
     fields were validated when it was made: :meth:`Fabric.replace` checks only what changed,
     a whole document taking about 0.6 ms, a fit replacing values a thousand times)."""
     validator = _field_validator(key)
-    return validator is not None and _non_finite(value) is None and validator.is_valid(value)
+    if validator is None or _non_finite(value) is not None or not validator.is_valid(value):
+        return False
+    if key in VALUE_RANGES:
+        lo, hi, _ = VALUE_RANGES[key]
+        return lo <= value <= hi
+    return key.split(".")[0] not in ("noise", "scale")  # checked whole (check_values)
 
 
 def validate(doc: Any, *, path: str | None = None) -> None:
@@ -259,6 +273,7 @@ def validate(doc: Any, *, path: str | None = None) -> None:
     errors = sorted(validator.iter_errors(doc), key=lambda e: (len(e.absolute_path), list(map(str, e.absolute_path))))
     if not errors:
         _check_pattern_shape(doc, path)
+        check_values(doc, path=path)
         return
     err = errors[0]
     # for oneOf (colour or texture path), report the deepest sub-error: it names the channel
@@ -288,6 +303,79 @@ def _check_pattern_shape(doc: dict, path: str | None) -> None:
 
 
 # ---------------------------------------------------------------------------------------------
+# values the schema leaves open: finite ranges, the noise block (docs/reliability.md)
+
+#: dotted key → (lowest, highest, why): the range of a value the schema bounds on one side
+#: only, so that no value overflows the renderer or makes it loop. Inclusive.
+VALUE_RANGES: dict[str, tuple[float, float, str]] = {
+    **{f"{yarn}.radius": (0.1, 10.0, "in Algorithm 1's units, where the yarn pitch is 10: 5 closes the gaps, 10 "
+                          "overlaps the neighbours whole, under 0.1 the yarn is a hundredth of its spacing")
+       for yarn in ("warp", "weft")},
+    "specular.attenuation": (0.0, 1000.0, "per unit of Algorithm 1's length; at 1000 the light is gone within 0.005 "
+                             "units, a larger value renders alike"),
+    "body_attenuation": (0.0, 1000.0, "at 1000 the body is opaque; a larger value renders alike"),
+    "scale.pitch_mm": (0.001, 1000.0, "the distance between neighbouring yarns, from 1 µm to 1 m (0 or less "
+                       "is no fabric; 1e-300 made the renderer's texture coordinates overflow)"),
+}
+
+#: the noise block (§6.3): at most this many Gaussians; the weights are variances of linear
+#: intensity (summing to the residual's variance, at most 1 for an image in [0, 1]); means in
+#: cycles per yarn pitch; covariances positive definite with eigenvalues in this range
+NOISE_GAUSSIANS = 64
+NOISE_MEAN = 1.0e4
+NOISE_EIGENVALUES = (1.0e-12, 1.0e8)
+
+
+def check_values(doc: dict, *, path: str | None = None) -> None:
+    """Check what a schema-valid document's schema leaves open (:data:`VALUE_RANGES`, the
+    noise block); raise :class:`ParamsError` naming the field, the value, the range and why.
+
+    A noise Gaussian's covariance must be symmetric and positive definite (a singular one made
+    the synthesis raise, an indefinite one an all-NaN image), its weight within [0, 1] and the
+    weights' sum at most 1 (a weight of 1e6 made pixel values of 2981)."""
+    for key, (lo, hi, why) in VALUE_RANGES.items():
+        node = doc
+        for part in key.split("."):
+            node = node.get(part) if isinstance(node, dict) else None
+        if node is not None and not lo <= node <= hi:
+            raise ParamsError(f"{node!r} is out of range; expected a number in [{lo:g}, {hi:g}] ({why})",
+                              field=key, path=path)
+    gaussians = (doc.get("noise") or {}).get("gaussians", [])
+    if len(gaussians) > NOISE_GAUSSIANS:
+        raise ParamsError(f"{len(gaussians)} Gaussians; at most {NOISE_GAUSSIANS} (weavecap fit writes 4)",
+                          field="noise.gaussians", path=path)
+    for i, g in enumerate(gaussians):
+        _check_gaussian(g, f"noise.gaussians[{i}]", path)
+    total = sum(g["weight"] for g in gaussians)
+    if total > 1.0:
+        raise ParamsError(f"the weights sum to {total:.4g}; at most 1 (each weight is a variance of linear intensity, "
+                          "their sum the photo's residual variance)", field="noise.gaussians", path=path)
+
+
+def _check_gaussian(g: dict, fld: str, path: str | None) -> None:
+    """One noise Gaussian: weight in [0, 1], mean within ±NOISE_MEAN, covariance symmetric
+    positive definite with eigenvalues in NOISE_EIGENVALUES."""
+    if not 0.0 <= g["weight"] <= 1.0:
+        raise ParamsError(f"{g['weight']!r} is out of range; expected a number in [0, 1] (a variance of linear "
+                          "intensity)", field=f"{fld}.weight", path=path)
+    if max(abs(v) for v in g["mean"]) > NOISE_MEAN:
+        raise ParamsError(f"{g['mean']!r} is out of range; expected frequencies within ±{NOISE_MEAN:g} cycles per "
+                          "yarn pitch", field=f"{fld}.mean", path=path)
+    cov = np.asarray(g["cov"], dtype=np.float64)
+    lo, hi = NOISE_EIGENVALUES
+    scale = max(float(np.abs(cov).max()), 1e-300)
+    if abs(cov[0, 1] - cov[1, 0]) > 1e-9 * scale:
+        raise ParamsError(f"{g['cov']!r} is not symmetric; a covariance has cov[0][1] == cov[1][0]",
+                          field=f"{fld}.cov", path=path)
+    eig = np.linalg.eigvalsh(cov)
+    if not (lo <= eig[0] and eig[1] <= hi):
+        what = "not positive definite" if eig[0] <= 0 else "out of range"
+        raise ParamsError(f"{g['cov']!r} is {what} (eigenvalues {eig[0]:.3g}, {eig[1]:.3g}); a covariance needs "
+                          f"eigenvalues in [{lo:g}, {hi:g}] (cycles per yarn pitch, squared)",
+                          field=f"{fld}.cov", path=path)
+
+
+# ---------------------------------------------------------------------------------------------
 # conversion
 
 
@@ -300,11 +388,41 @@ def _colour(value: Any, base: Path | None, fld: str, path: str | None) -> Colour
         tex = Path(value)
         if not tex.is_absolute() and base is not None:
             tex = base / tex
-        if not tex.is_file():
-            raise ParamsError(f"texture file {str(tex)!r} does not exist; give a path relative to the params file "
-                              "or an RGB colour [r, g, b] in [0, 1]", field=fld, path=path)
+        check_texture(tex, fld, path)
         return str(tex.resolve())
     return _rgb(value)
+
+
+def check_texture(tex: Path, fld: str, path: str | None) -> None:
+    """Refuse a body-colour texture that is not a readable image file, with :class:`ParamsError`
+    (exit 2: the params file is what is wrong, not a photo) naming the field and why.
+
+    Decoded here, so that a texture fails when its params file is read, not in the middle of
+    a render (where an unreadable one was a "photo rejected", exit 3); once per file version
+    (a fit replaces values thousands of times)."""
+    fix = "give a path relative to the params file or an RGB colour [r, g, b] in [0, 1]"
+    if not tex.exists():
+        raise ParamsError(f"texture file {str(tex)!r} does not exist; {fix}", field=fld, path=path)
+    if not tex.is_file():
+        kind = "a folder" if tex.is_dir() else "not a regular file (a device or a pipe)"
+        raise ParamsError(f"texture {str(tex)!r} is {kind}; {fix}", field=fld, path=path)
+    stat = tex.stat()
+    problem = _texture_problem(str(tex), stat.st_mtime_ns, stat.st_size)
+    if problem:
+        raise ParamsError(f"the texture cannot be used: {problem}", field=fld, path=path)
+
+
+@functools.lru_cache(maxsize=64)
+def _texture_problem(tex: str, mtime_ns: int, size: int) -> str:
+    """Why the image file ``tex`` (of this modification time and size) cannot be read, or ``""``."""
+    from .errors import PhotoError
+    from .photo import load_photo
+
+    try:
+        load_photo(tex)
+    except PhotoError as exc:
+        return str(exc)
+    return ""
 
 
 def from_dict(doc: Any, *, base: Path | None = None, path: str | None = None) -> Fabric:
@@ -355,19 +473,35 @@ def to_dict(fabric: Fabric) -> dict:
     return json.loads(json.dumps(doc))
 
 
+#: the largest params file read (a fabric with 64 noise Gaussians is a few KiB)
+MAX_FILE_BYTES = 1 << 20
+
+
 def load(path: str | os.PathLike) -> Fabric:
     """Read and validate a params file. Raises :class:`ParamsError` (exit 2) for anything wrong."""
+    from .io import loads_json
+
     p = Path(path)
-    if not p.is_file():
+    if p.is_dir():
+        raise ParamsError("is a folder; give the path of a params.json file", path=str(p))
+    if not p.exists():
         raise ParamsError("file not found; give the path of a params.json file", path=str(p))
+    if not p.is_file():
+        raise ParamsError("is not a regular file (a device or a pipe); give the path of a params.json file",
+                          path=str(p))
     try:
+        if p.stat().st_size > MAX_FILE_BYTES:
+            raise ParamsError(f"{p.stat().st_size} bytes is too large for a params file (at most {MAX_FILE_BYTES}); "
+                              "give the params.json weavecap fit wrote", path=str(p))
         text = p.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise ParamsError(f"cannot read the file as UTF-8 text ({exc})", path=str(p)) from exc
     try:
-        doc = json.loads(text)
+        doc = loads_json(text)
     except json.JSONDecodeError as exc:
         raise ParamsError(f"not valid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}", path=str(p)) from exc
+    except ValueError as exc:
+        raise ParamsError(f"not a params document: {exc}", path=str(p)) from exc
     return from_dict(doc, base=p.parent, path=str(p))
 
 

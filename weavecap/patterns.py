@@ -22,7 +22,14 @@ from .wif import MAX_REPEAT
 KINDS = "a params .json, a .wif weaving draft, or a text file of 0/1 rows"
 
 
+#: the largest text pattern file read: 64 rows of 64 values fill about 8 KiB
+MAX_TEXT_BYTES = 1 << 20
+
+
 def _text_pattern(path: Path) -> np.ndarray:
+    if path.stat().st_size > MAX_TEXT_BYTES:
+        raise InputError(f"{path}: {path.stat().st_size} bytes is too large for a pattern file (at most "
+                         f"{MAX_TEXT_BYTES}; one repeat of at most {MAX_REPEAT} × {MAX_REPEAT}); give {KINDS}")
     try:
         text = path.read_text()
     except (OSError, UnicodeDecodeError) as exc:
@@ -70,7 +77,8 @@ def load_pattern(path: str | os.PathLike) -> np.ndarray:
     p = Path(path)
     suffix = p.suffix.lower()
     if not p.is_file():
-        raise InputError(f"{p}: cannot read the pattern file (no such file); give {KINDS}")
+        why = "a folder" if p.is_dir() else "not a regular file" if p.exists() else "no such file"
+        raise InputError(f"{p}: cannot read the pattern file ({why}); give {KINDS}")
     if suffix == ".json":
         from . import params
 

@@ -231,6 +231,18 @@ _TIFF_MAGIC = (b"II*\x00", b"MM\x00*", b"II+\x00", b"MM\x00+")
 _EXR_MAGIC = b"\x76\x2f\x31\x01"
 
 
+def _other_format(data: bytes) -> str | None:
+    """The name of an image format weavecap does not read (GIF, WebP, BMP, ...) that Pillow
+    recognises in ``data``, for the message; None if it is none Pillow knows."""
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            with Image.open(io.BytesIO(data)) as im:
+                return im.format
+    except Exception:  # noqa: BLE001 - any failure means "not an image Pillow knows"
+        return None
+
+
 def _sniff(data: bytes) -> str | None:
     """The container format: TIFF and OpenEXR by their magic numbers (tifffile and the EXR
     reader take it from there), JPEG and PNG when Pillow identifies them; else None."""
@@ -289,8 +301,8 @@ def _pillow_header(data: bytes, fmt: str, max_pixels: int) -> _Header:
     except (OSError, SyntaxError, ValueError) as exc:
         raise _Bad(f"the {name} header is corrupt or cut short ({exc})") from None
     if fmt == "png":
-        try:
-            with Image.open(io.BytesIO(data), formats=("PNG",)) as im:
+        try:  # under the same limit: Pillow's own (89.5 MP) would warn on a photo the limit allows
+            with _pixel_limit(max_pixels), Image.open(io.BytesIO(data), formats=("PNG",)) as im:
                 im.verify()
         except (OSError, SyntaxError, ValueError) as exc:
             what = "the file is truncated" if "truncat" in str(exc).lower() else "the PNG data is corrupt"
@@ -558,8 +570,21 @@ def _check_size(width: int, height: int, max_pixels: int) -> None:
 
 
 def file_sha256(path: str | os.PathLike) -> str:
-    """SHA-256 (hex) of a file's bytes: the identity of a photo in reports and resumed batches."""
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    """SHA-256 (hex) of a file's bytes: the identity of a photo in reports and resumed batches.
+
+    Raises
+    ------
+    OSError
+        Not a regular file (a device such as /dev/zero would be read forever), or unreadable.
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise OSError(f"{p}: not a regular file")
+    digest = hashlib.sha256()
+    with p.open("rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
 
 
 def load_photo(path: str | os.PathLike, *, max_pixels: int = DEFAULT_MAX_PIXELS) -> Photo:
@@ -598,6 +623,8 @@ def load_photo(path: str | os.PathLike, *, max_pixels: int = DEFAULT_MAX_PIXELS)
         raise fail("no such file", "check the path and spelling")
     if p.is_dir():
         raise fail("is a directory, not a photo", "give the path of an image file inside it")
+    if not p.is_file():  # reading /dev/zero would never end
+        raise fail("is not a regular file (a device or a pipe)", "give the path of an image file")
     try:
         data = p.read_bytes()
     except OSError as exc:
@@ -613,6 +640,11 @@ def load_photo(path: str | os.PathLike, *, max_pixels: int = DEFAULT_MAX_PIXELS)
         rgb = None
         bits = 0
         fmt = kind
+        other = _other_format(data) if kind is None else None
+        if other is not None and other not in ("TIFF", "JPEG", "PNG", "MPO"):
+            raise _Bad(f"is a {other} image, which weavecap does not read",
+                       "convert it to PNG, TIFF or JPEG (a 16-bit PNG or TIFF keeps the most), or give the camera's "
+                       "original")
         try_raw = ext in RAW_EXTENSIONS or (ext not in _STANDARD_EXTENSIONS and kind in (None, "tiff"))
         if try_raw:
             try:
@@ -676,15 +708,15 @@ def _encode_srgb(rgb_linear, bits: int) -> np.ndarray:
     return np.ascontiguousarray(q[:, :, ::-1])
 
 
-def _write_encoded(path, ext: str, image: np.ndarray) -> None:
+def _write_encoded(path, ext: str, image: np.ndarray, overwrite: bool = True) -> None:
     ok, buf = cv2.imencode(ext, image)
     if not ok:
         raise WeavecapError(f"{os.fspath(path)}: OpenCV could not encode a {ext} image of shape {image.shape}")
-    with atomic_path(path) as tmp:
+    with atomic_path(path, overwrite=overwrite) as tmp:
         tmp.write_bytes(buf.tobytes())
 
 
-def save_png(path: str | os.PathLike, rgb_linear, *, bits: int = 8) -> None:
+def save_png(path: str | os.PathLike, rgb_linear, *, bits: int = 8, overwrite: bool = True) -> None:
     """Write linear RGB as an sRGB-encoded PNG, atomically.
 
     Parameters
@@ -695,18 +727,22 @@ def save_png(path: str | os.PathLike, rgb_linear, *, bits: int = 8) -> None:
         ``(H, W, 3)`` (or ``(H, W)`` grey) linear values; clipped to [0, 1], NaN → 0, +Inf → 1.
     bits : {8, 16}
         Bits per channel.
+    overwrite : bool
+        False: refuse (:class:`InputError`) a ``path`` that exists when the file is renamed
+        into place (:func:`weavecap.io.atomic_path`).
     """
     if bits not in (8, 16):
         raise ValueError(f"bits must be 8 or 16, not {bits!r}")
-    _write_encoded(path, ".png", _encode_srgb(rgb_linear, bits))
+    _write_encoded(path, ".png", _encode_srgb(rgb_linear, bits), overwrite)
 
 
-def save_tiff(path: str | os.PathLike, rgb_linear) -> None:
-    """Write linear RGB as an sRGB-encoded 16-bit TIFF, atomically (same clipping as :func:`save_png`)."""
-    _write_encoded(path, ".tiff", _encode_srgb(rgb_linear, 16))
+def save_tiff(path: str | os.PathLike, rgb_linear, *, overwrite: bool = True) -> None:
+    """Write linear RGB as an sRGB-encoded 16-bit TIFF, atomically (same clipping and
+    ``overwrite`` as :func:`save_png`)."""
+    _write_encoded(path, ".tiff", _encode_srgb(rgb_linear, 16), overwrite)
 
 
-def save_exr(path: str | os.PathLike, rgb_linear) -> None:
+def save_exr(path: str | os.PathLike, rgb_linear, *, overwrite: bool = True) -> None:
     """Write linear RGB as a float32 OpenEXR file, atomically, values unchanged.
 
     Parameters
@@ -715,11 +751,13 @@ def save_exr(path: str | os.PathLike, rgb_linear) -> None:
         Destination; written under a temporary name and renamed into place.
     rgb_linear : array_like
         ``(H, W, 3)`` (or ``(H, W)`` grey) linear values, stored as 32-bit float RGB.
+    overwrite : bool
+        As :func:`save_png`'s.
     """
     a = np.ascontiguousarray(_as_rgb(rgb_linear))
     mi = _mitsuba_core()
     bmp = mi.Bitmap(a, pixel_format=mi.Bitmap.PixelFormat.RGB)
-    with atomic_path(path) as tmp:
+    with atomic_path(path, overwrite=overwrite) as tmp:
         bmp.write(str(tmp), mi.Bitmap.FileFormat.OpenEXR)
 
 
@@ -742,10 +780,12 @@ def supported_output(path: str | os.PathLike):
     return saver
 
 
-def save_image(path: str | os.PathLike, rgb_linear) -> None:
+def save_image(path: str | os.PathLike, rgb_linear, *, overwrite: bool = True) -> None:
     """Write linear RGB in the format the extension names, atomically.
 
     ``.png`` → 8-bit sRGB PNG, ``.exr`` → float32 linear EXR, ``.tif``/``.tiff`` → 16-bit sRGB
-    TIFF (extension case ignored). An unknown extension raises :class:`InputError`.
+    TIFF (extension case ignored). An unknown extension raises :class:`InputError`; without
+    ``overwrite``, a ``path`` that exists by the time it is written too (a command without
+    ``--force`` checked it before its work, another run may have written it since).
     """
-    supported_output(path)(path, rgb_linear)
+    supported_output(path)(path, rgb_linear, overwrite=overwrite)

@@ -23,7 +23,6 @@ from .errors import PhotoError
 from .fit.config import PRESETS, FitConfig, cell_px_for
 from .fit.fidelity import captioned, faithful_figures, fidelity
 from .fit.target import align_cells, repeat_cells, shifted
-from .io import atomic_write_text
 
 REPORT_FORMAT = "weavecap.report/1"
 OUTPUT_FILES = ("params.json", "report.json", "compare.png", "rectified.png", "grid.png", "loss.png")
@@ -428,18 +427,21 @@ def kept_capture(reports: dict[str, dict], config: FitConfig) -> tuple[str, str]
 
 
 def write_capture(cap: Capture, out_dir: Path) -> None:
-    """Write a capture's outputs into ``out_dir`` (created), each atomically, report.json last.
-    A rejected photo gets only report.json."""
+    """Write a capture's outputs into ``out_dir`` as one result set, report.json last
+    (:func:`weavecap.io.write_result_set`). A rejected photo gets only report.json; an
+    earlier run's other outputs are removed."""
+    from .io import atomic_write_text, write_result_set
     from .photo import save_png
 
-    out_dir.mkdir(parents=True, exist_ok=True)
-    if cap.fabric is not None:
-        wparams.save(cap.fabric, out_dir / "params.json")
+    files = {}
+    if cap.fabric is not None:  # texture paths relative to where params.json ends up, not the staging
+        files["params.json"] = lambda path: atomic_write_text(path, wparams.dumps(cap.fabric, base=out_dir.resolve()))
         for name, image in cap.images.items():
             if name == "compare.png":
                 image = _enlarged(image)
             if name in cap.captions:
                 image = captioned(image, cap.captions[name])
-            save_png(out_dir / name, image)
-        save_png(out_dir / "loss.png", loss_plot(cap.history))
-    atomic_write_text(out_dir / "report.json", json.dumps(cap.report, indent=1) + "\n")
+            files[name] = lambda path, image=image: save_png(path, image)
+        files["loss.png"] = lambda path: save_png(path, loss_plot(cap.history))
+    write_result_set(out_dir, files, record=("report.json", json.dumps(cap.report, indent=1) + "\n"),
+                     outputs=OUTPUT_FILES)

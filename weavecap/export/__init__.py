@@ -23,7 +23,7 @@ from pathlib import Path
 
 from .. import __version__
 from ..errors import InputError
-from ..io import refuse_overwrite
+from ..io import inside, plain_name, refuse_overwrite
 from ..params import Fabric
 from .maps import PbrMaps
 
@@ -158,7 +158,7 @@ def _mitsuba(fabric: Fabric, out: Path, options: ExportOptions, material: Materi
     from . import mitsuba
 
     folder = out / "mitsuba"
-    files = mitsuba.scene_files(options.name)
+    files = mitsuba.scene_files(options.name, fabric)
     return Plan([folder / f for f in files.values()],
                 lambda: mitsuba.save_scenes(material.maps, fabric, folder, name=options.name,
                                             swatch_mm=options.swatch_mm, texels_per_yarn=options.texels_per_yarn))
@@ -189,9 +189,12 @@ def _preview(maps: PbrMaps):
 
 def default_name(params_path: str | os.PathLike) -> str:
     """The output stem for a params file: its stem, or its folder's name for ``params.json``
-    (what ``weavecap fit`` writes)."""
+    (what ``weavecap fit`` writes), made a plain name (:func:`weavecap.io.folder_name`: a
+    params file ``...json`` gives ``fabric``)."""
+    from ..io import folder_name
+
     p = Path(params_path).resolve()
-    return p.parent.name if p.stem == "params" and p.parent.name else p.stem
+    return folder_name(p.parent.name if p.stem == "params" and p.parent.name else p.stem, fallback="fabric")
 
 
 def export(fabric: Fabric, out: str | os.PathLike, options: ExportOptions) -> list[Path]:
@@ -205,10 +208,12 @@ def export(fabric: Fabric, out: str | os.PathLike, options: ExportOptions) -> li
     Raises
     ------
     InputError
-        (exit 2) An unknown format, ``out`` is a file, or an output exists and ``force`` is
-        false — checked for every output before anything is written.
+        (exit 2) An unknown format, ``out`` is a file, ``options.name`` is not a plain file
+        name (:func:`weavecap.io.plain_name`: every file stays under ``out``), or an output
+        exists and ``force`` is false — checked for every output before anything is written.
     """
     out = Path(out)
+    plain_name(options.name, what="the output name")
     if out.exists() and not out.is_dir():
         raise InputError(f"{out}: exists and is not a folder; give a folder for -o")
     unknown = [f for f in options.formats if f not in FORMATS]
@@ -220,6 +225,7 @@ def export(fabric: Fabric, out: str | os.PathLike, options: ExportOptions) -> li
     plans = [FORMATS[f](fabric, out, options, material) for f in dict.fromkeys(options.formats)]
     for plan in plans:
         for path in plan.paths:
+            inside(out, path)
             refuse_overwrite(path, force=options.force)
     out.mkdir(parents=True, exist_ok=True)
     written = []

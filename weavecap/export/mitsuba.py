@@ -221,10 +221,16 @@ def maps_mode(maps: PbrMaps, textures: dict[str, str], name: str = "exported-map
                 integrator=lambda lighting, options: {"type": "path", "max_depth": int(options.max_depth)})
 
 
-def scene_files(name: str) -> dict[str, str]:
-    """The files of the Mitsuba export, relative to its folder."""
+def scene_files(name: str, fabric=None) -> dict[str, str]:
+    """The files of the Mitsuba export, relative to its folder: with ``fabric``, also a copy of
+    each body-colour texture its params name (``<yarn>_body``), so that the folder is
+    self-contained (its params file points at the copies, not back at the source)."""
     files = {key: f"textures/{name}_{key}.png" for key in TEXTURES}
     files.update(scene=f"{name}.xml", weavecap=f"{name}_weavecap.xml", params=f"{name}.json")
+    for yarn in ("warp", "weft"):
+        colour = getattr(fabric, yarn).body_reflection if fabric is not None else None
+        if isinstance(colour, str):
+            files[f"{yarn}_body"] = f"textures/{name}_{yarn}_body{Path(colour).suffix.lower()}"
     return files
 
 
@@ -237,14 +243,22 @@ def write_textures(maps: PbrMaps, folder: Path, files: dict[str, str]) -> None:
 def save_scenes(maps: PbrMaps, fabric, folder: Path, *, name: str, swatch_mm: float, texels_per_yarn: int) -> list[Path]:
     """Write the swatch scene twice into ``folder``: ``<name>.xml`` with the PBR maps on the
     principled BSDF (plain Mitsuba), and ``<name>_weavecap.xml`` with weavecap's surface BSDF
-    and path tracer (:func:`load_scene`), with the fabric's params beside it."""
+    and path tracer (:func:`load_scene`), with the fabric's params beside it and copies of its
+    body textures under ``textures/`` (the folder moves as a whole)."""
+    from ..io import atomic_write_bytes
     from ..params import save
 
-    files = scene_files(name)
+    files = scene_files(name, fabric)
     write_textures(maps, folder, files)
     plain = swatch_scene(maps, files, swatch_mm=swatch_mm)
     save_scene(plain, folder / files["scene"])
-    save(fabric, folder / files["params"])
+    copies = {}
+    for yarn in ("warp", "weft"):
+        if f"{yarn}_body" in files:
+            copy = (folder / files[f"{yarn}_body"]).resolve()
+            atomic_write_bytes(copy, Path(getattr(fabric, yarn).body_reflection).read_bytes())
+            copies[f"{yarn}.body_reflection"] = str(copy)
+    save(fabric.replace(copies) if copies else fabric, folder / files["params"])
     k = (swatch_mm / maps.size_mm[0] * maps.repeats[1], swatch_mm / maps.size_mm[1] * maps.repeats[0])
     surface = {"type": PLUGIN, "params": files["params"], "repeat_u": 1.0 / k[0], "repeat_v": 1.0 / k[1],
                "texels_per_yarn": int(texels_per_yarn)}

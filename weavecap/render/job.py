@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..io import atomic_path, atomic_write_text
+from ..io import atomic_path, write_result_set
 from ..params import Fabric
 from ..photo import file_sha256, load_photo, save_image
 from .mesh import RenderMesh
@@ -86,8 +86,6 @@ class RenderJob:
         fabric = load_fabric(source, self.pattern)
         result = render_fabric(fabric, self.mesh, self.options)
         folder = Path(folder)
-        folder.mkdir(parents=True, exist_ok=True)
-        save_image(folder / IMAGE, result.image)
         info = dict(result.info)
         timings = info.pop("timings")
         timings["total"] = time.perf_counter() - t0
@@ -95,7 +93,8 @@ class RenderJob:
                   "mesh": {"path": str(self.mesh.path), "triangles": int(len(self.mesh.faces))},
                   "output": str(folder / IMAGE), **info,
                   "timings_s": {k: round(v, 3) for k, v in timings.items()}}
-        atomic_write_text(folder / RECORD, json.dumps(record, indent=1) + "\n")
+        write_result_set(folder, {IMAGE: lambda path: save_image(path, result.image)},
+                         record=(RECORD, json.dumps(record, indent=1) + "\n"), outputs=self.outputs)
         return record
 
     def failure_record(self, source: str, status: str, reason: str, seconds: float) -> dict:

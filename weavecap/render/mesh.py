@@ -3,12 +3,13 @@
 :func:`load_mesh` reads the file with trimesh (one object, every object of a multi-object
 OBJ, or the one ``object_name`` names), refuses what cannot be rendered with an
 :class:`~weavecap.errors.InputError` naming the file and the problem (no faces, NaN/Inf
-vertices, face indices out of range, more than MAX_FACES faces, not a mesh), and repairs what
-can be (n-gons triangulated on reading, degenerate faces dropped, duplicate vertices merged, a
-missing ``.mtl`` ignored). It returns a :class:`RenderMesh` whose texture coordinates are the
-fabric's coordinates in metres:
+vertices, face indices out of range, more than MAX_FACES faces, not a mesh, smaller than
+0.1 mm or larger than 10 km), and repairs what can be (n-gons triangulated on reading,
+degenerate faces dropped, duplicate vertices merged, a missing ``.mtl`` ignored). It returns a
+:class:`RenderMesh` whose texture coordinates are the fabric's coordinates in metres:
 
-- without UVs in the file (or with UVs on too few faces), xatlas makes them and the notes say so;
+- without UVs in the file (or with UVs on too few faces, NaN ones, or a layout without area),
+  xatlas makes them and the notes say why;
 - whatever the layout's scale, each UV island is solved for the coordinates that are, face by
   face, as close as possible to a rotation of the 3D surface — the rotation read from the
   layout (its grain direction kept), the stretch taken out — by one least-squares solve per
@@ -21,9 +22,11 @@ from __future__ import annotations
 
 import logging
 import math
+import time
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 from scipy import sparse
@@ -36,6 +39,13 @@ UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001}
 MAX_FACES = 4_000_000  # triangles after reading; beyond, the BSDF maps and BVH outgrow a laptop
 MAX_FILE_BYTES = 1 << 30
 GARMENT_SIZE_M = (0.05, 5.0)  # a bounding-box diagonal outside this is unlikely for a garment
+#: a bounding-box diagonal outside this is refused: no garment, and at 1e-30 m the faces' areas
+#: underflow, at 1e20 m xatlas never returns (float32 normals that cannot be normalised)
+MESH_SIZE_M = (1e-4, 1e4)
+#: from this many triangles (or this many bytes of file), each step of reading says so: a
+#: 2-million-triangle mesh takes minutes
+LARGE_FACES = 200_000
+LARGE_FILE_BYTES = 20 << 20
 MIN_UV_FACES = 0.5  # with UVs on fewer faces than this share, the layout is made anew
 ANCHOR = 1e-9  # weight of the pull towards the layout that pins each island's translation
 
@@ -123,10 +133,25 @@ def _bad_obj_index(path: Path) -> str:
     return "a face refers to a vertex that does not exist"
 
 
+def _sniff(path: Path) -> None:
+    """Refuse a file that cannot be the mesh its suffix says, before trimesh guesses at it (it
+    blamed random bytes in an ``.obj`` on a missing ``charset_normalizer``)."""
+    with path.open("rb") as fh:
+        head = fh.read(1 << 16)
+    if path.suffix.lower() == ".ply":
+        if not head.startswith(b"ply"):
+            raise InputError(f"{path}: not a readable PLY mesh: a PLY file starts with the line 'ply'; give an OBJ "
+                             "or PLY mesh")
+    elif b"\0" in head:
+        raise InputError(f"{path}: not a readable OBJ mesh: an OBJ file is text, this one holds binary data; give "
+                         "an OBJ or PLY mesh")
+
+
 def _read(path: Path):
     """trimesh's scene of the file (objects kept apart), or InputError."""
     import trimesh
 
+    _sniff(path)
     logging.getLogger("trimesh").setLevel(logging.ERROR)  # a missing .mtl is not the user's problem here
     try:
         with warnings.catch_warnings():  # trimesh's own numerical chatter on meshes without UVs
@@ -137,8 +162,9 @@ def _read(path: Path):
         raise InputError(f"{path}: face indices out of range: {_bad_obj_index(path)}; fix or re-export the "
                          "mesh") from None
     except Exception as exc:  # noqa: BLE001 - any parser failure means "not a mesh we can read"
-        raise InputError(f"{path}: not a readable {path.suffix[1:].upper()} mesh ({type(exc).__name__}: {exc}); "
-                         "give an OBJ or PLY file of triangles or polygons") from None
+        why = "" if isinstance(exc, ImportError) else f" ({type(exc).__name__}: {exc})"  # trimesh's, not the file's
+        raise InputError(f"{path}: not a readable {path.suffix[1:].upper()} mesh{why}; give an OBJ or PLY file of "
+                         "triangles or polygons") from None
     return scene
 
 
@@ -161,8 +187,9 @@ def _objects(path: Path, scene, object_name: str | None) -> list[tuple[str, obje
     return chosen
 
 
-def _checked(path: Path, name: str, geom) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-    """(vertices, faces, uv or None) of one object, refusing NaN/Inf and bad indices."""
+def _checked(path: Path, name: str, geom) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, str]:
+    """(vertices, faces, uv or None, why the file's UVs are not used or ``""``) of one object,
+    refusing NaN/Inf vertices and bad indices."""
     vertices = np.asarray(geom.vertices, dtype=np.float64)
     faces = np.asarray(geom.faces, dtype=np.int64)
     where = f"{path}" + (f" (object {name})" if name else "")
@@ -174,11 +201,17 @@ def _checked(path: Path, name: str, geom) -> tuple[np.ndarray, np.ndarray, np.nd
         raise InputError(f"{where}: face indices out of range: a face refers to vertex {int(faces.max()) + 1} but "
                          f"there are {len(vertices)} vertices; fix or re-export the mesh")
     uv = getattr(geom.visual, "uv", None)
+    why = "the file has no texture coordinates"
     if uv is not None:
         uv = np.asarray(uv, dtype=np.float64)
-        if uv.shape != (len(vertices), 2) or not np.isfinite(uv).all():
-            uv = None
-    return vertices, faces, uv
+        if uv.shape != (len(vertices), 2):
+            uv, why = None, "the file's texture coordinates do not match its vertices"
+        elif not np.isfinite(uv).all():
+            bad = int((~np.isfinite(uv)).any(axis=1).sum())
+            uv, why = None, f"{bad} of the file's texture coordinates are NaN or infinite"
+        else:
+            why = ""
+    return vertices, faces, uv, why
 
 
 def _clean(vertices, faces, uv, notes: list[str]):
@@ -332,18 +365,37 @@ def fabric_coordinates(vertices: np.ndarray, faces: np.ndarray, uv: np.ndarray) 
                     "mirrored_islands": int(mirrored_islands.sum()), "mirrored_faces": int(flip.sum())}
 
 
+def _uv_area_share(vertices: np.ndarray, faces: np.ndarray, uv: np.ndarray) -> float:
+    """The share of the surface's area on faces whose UV triangle has an area (not all at one
+    point, not on a line), relative to the layout's extent."""
+    q = uv[faces]
+    a, b = q[:, 1] - q[:, 0], q[:, 2] - q[:, 0]
+    uv_area = np.abs(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])
+    extent = float(np.ptp(uv, axis=0).max()) if len(uv) else 0.0
+    p = vertices[faces]
+    area = np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
+    return float(area[uv_area > 1e-12 * extent * extent].sum() / max(area.sum(), 1e-300))
+
+
 def _generate_uvs(vertices: np.ndarray, faces: np.ndarray, normals: np.ndarray):
-    """xatlas charts: (vertices, faces, normals, uv) with vertices split along chart seams."""
+    """xatlas charts: (vertices, faces, normals, uv) with vertices split along chart seams.
+
+    xatlas gets the mesh centred and scaled to a unit box (its charts do not depend on the
+    scale), in float32 well within range: far from the origin or at 1e20 its normals could not
+    be normalised and it never returned."""
     import xatlas
 
-    vmap, new_faces, uv = xatlas.parametrize(vertices.astype(np.float32), faces.astype(np.uint32))
+    centre = (vertices.min(axis=0) + vertices.max(axis=0)) / 2
+    size = max(float(np.ptp(vertices, axis=0).max()), 1e-300)
+    vmap, new_faces, uv = xatlas.parametrize(((vertices - centre) / size).astype(np.float32), faces.astype(np.uint32))
     return vertices[vmap], new_faces.astype(np.int64), normals[vmap], uv.astype(np.float64)
 
 
 # ---------------------------------------------------------------------------------------------
 
 
-def load_mesh(path, *, units: str = "m", object_name: str | None = None) -> RenderMesh:
+def load_mesh(path, *, units: str = "m", object_name: str | None = None,
+              progress: Callable[[str], None] | None = None) -> RenderMesh:
     """Read, check, clean and measure a mesh, with fabric coordinates in metres.
 
     Parameters
@@ -351,18 +403,27 @@ def load_mesh(path, *, units: str = "m", object_name: str | None = None) -> Rend
     path : OBJ or PLY file
     units : the file's length unit, ``m``, ``cm`` or ``mm``
     object_name : render only this object of a multi-object OBJ (default: every object)
+    progress : called with a line before each step of a large mesh (:data:`LARGE_FACES`
+        triangles or :data:`LARGE_FILE_BYTES` of file), each saying what it does and the
+        time so far
 
     Raises
     ------
     InputError
         Missing, empty, oversized or unreadable file; not a mesh; no faces; NaN/Inf vertices;
-        face indices out of range; more than MAX_FACES faces; unknown ``units`` or object.
+        face indices out of range; more than MAX_FACES faces; a size or a distance from the
+        origin outside MESH_SIZE_M; unknown ``units`` or object.
     """
     p = Path(path)
+    t0 = time.perf_counter()
     if units not in UNITS:
         raise InputError(f"--units {units!r} is unknown; use one of {', '.join(UNITS)}")
-    if not p.is_file():
+    if p.is_dir():
+        raise InputError(f"{p}: is a folder; give the path of an OBJ or PLY mesh file")
+    if not p.exists():
         raise InputError(f"{p}: mesh file not found")
+    if not p.is_file():
+        raise InputError(f"{p}: is not a regular file (a device or a pipe); give an OBJ or PLY mesh file")
     size = p.stat().st_size
     if size == 0:
         raise InputError(f"{p}: the file is empty; give an OBJ or PLY mesh")
@@ -371,35 +432,61 @@ def load_mesh(path, *, units: str = "m", object_name: str | None = None) -> Rend
                          "decimate the mesh first")
     if p.suffix.lower() not in (".obj", ".ply"):
         raise InputError(f"{p}: unsupported mesh format {p.suffix or '(none)'!r}; give an OBJ or PLY file")
+    large = size >= LARGE_FILE_BYTES
+
+    def step(what: str) -> None:
+        if large and progress is not None:
+            progress(f"{what} ({time.perf_counter() - t0:.1f} s so far)")
+
+    step(f"reading {size / 2**20:.0f} MB")
     objects = _objects(p, _read(p), object_name)
     notes: list[str] = []
     total = sum(len(g.faces) for _, g in objects)
     if total > MAX_FACES:
         raise InputError(f"{p}: {total} faces is over the mesh size limit of {MAX_FACES}; decimate the mesh first")
+    large = large or total >= LARGE_FACES
     parts, names = [], []
     for name, geom in objects:
         parts.append(_checked(p, name if len(objects) > 1 else "", geom))
         names.append(name)
-    with_uv = sum(len(f) for _, f, uv in parts if uv is not None)
-    use_file_uvs = with_uv >= MIN_UV_FACES * total and all(uv is not None for _, _, uv in parts)
+    with_uv = sum(len(f) for _, f, uv, _ in parts if uv is not None)
+    use_file_uvs = with_uv >= MIN_UV_FACES * total and all(uv is not None for _, _, uv, _ in parts)
     vertices, faces, uvs, offset = [], [], [], 0
-    for v, f, uv in parts:
+    for v, f, uv, _ in parts:
         vertices.append(v)
         faces.append(f + offset)
         uvs.append(uv if use_file_uvs else np.zeros((len(v), 2)))
         offset += len(v)
     vertices, faces, uv = np.concatenate(vertices), np.concatenate(faces), np.concatenate(uvs)
+    diagonal = float(np.linalg.norm(np.ptp(vertices, axis=0))) * UNITS[units]
+    if not MESH_SIZE_M[0] <= diagonal <= MESH_SIZE_M[1]:
+        raise InputError(f"{p}: the mesh is {diagonal:.3g} m across in --units {units}, outside "
+                         f"{MESH_SIZE_M[0] * 1000:g} mm to {MESH_SIZE_M[1] / 1000:g} km; check --units (m, cm, mm) "
+                         "or rescale the mesh")
+    reach = float(np.abs(vertices).max()) * UNITS[units]
+    if reach > MESH_SIZE_M[1]:  # the renderer's float32 would merge its vertices
+        raise InputError(f"{p}: the mesh lies up to {reach:.3g} m from the origin, beyond "
+                         f"{MESH_SIZE_M[1] / 1000:g} km; move it near the origin (the renderer works in 32-bit floats)")
+    step(f"cleaning {total} triangles")
     vertices, faces, uv = _clean(vertices * UNITS[units], faces, uv if use_file_uvs else None, notes)
     if not len(faces):
         raise InputError(f"{p}: every face is degenerate (zero area); nothing to render")
     normals = _smooth_normals(vertices, faces)
+    why = next((w for _, _, _, w in parts if w), "texture coordinates cover too few faces")
+    if use_file_uvs:
+        share = _uv_area_share(vertices, faces, uv)
+        if share < MIN_UV_FACES:
+            use_file_uvs = False
+            why = (f"the file's texture coordinates have no area on {1 - share:.0%} of the surface (all at one point, "
+                   "or on a line)")
     if use_file_uvs:
         source = "file"
     else:
+        step(f"making UVs with xatlas for {len(faces)} triangles")
         vertices, faces, normals, uv = _generate_uvs(vertices, faces, normals)
         source = "xatlas"
-        why = "the file has no texture coordinates" if with_uv == 0 else "texture coordinates cover too few faces"
         notes.append(f"generated UVs with xatlas ({why})")
+    step("solving the fabric coordinates")
     coords, stretch = fabric_coordinates(vertices, faces, uv)
     if stretch["mirrored_islands"] and source == "file":
         notes.append(f"{stretch['mirrored_islands']} of {stretch['islands']} UV islands are laid out mirrored; the "
@@ -409,5 +496,6 @@ def load_mesh(path, *, units: str = "m", object_name: str | None = None) -> Rend
     if not lo <= diagonal <= hi:
         notes.append(f"warning: the mesh is {diagonal:.3g} m across in --units {units}, which is unlikely for a "
                      "garment; check --units (m, cm, mm)")
+    step("read")
     return RenderMesh(path=p, positions=vertices, faces=faces, normals=normals, uv=coords, objects=names,
                       uv_source=source, stretch=stretch, notes=notes)
