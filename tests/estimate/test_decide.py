@@ -9,6 +9,7 @@ from weavecap.estimate.cells import CellGrid
 from weavecap.estimate.decide import (DECIDED_NATS, fold, lattice_offset, photo_lattice, same_weave,
                                       score_patterns)
 from weavecap.estimate.sampling import herringbone, satin, twill
+from weavecap.estimate.weave_name import minimal_repeat
 
 
 def noisy_logits(pattern, lattice, *, strength=2.0, flips=0.0, seed=0, phase=(0, 0)):
@@ -50,14 +51,17 @@ def test_a_custom_pattern_wins_only_when_the_cells_show_it_clearly():
     assert faint[0].family != "custom"
 
 
-def test_evidence_is_the_gap_to_the_best_different_weave():
-    ranked = score_patterns(noisy_logits(twill(1, 3), (12, 12), strength=3.0, seed=4))
+def other_family_gap(ranked):
+    """The best candidate's score less the best of another family or repeat (decide's evidence)."""
     best = ranked[0]
-    other = next(c for c in ranked[1:] if not same_weave(c.pattern, best.pattern))
-    assert best.score - other.score > DECIDED_NATS
-    weak = score_patterns(noisy_logits(twill(1, 3), (12, 12), strength=0.05, seed=4))
-    other = next(c for c in weak[1:] if not same_weave(c.pattern, weak[0].pattern))
-    assert weak[0].score - other.score < DECIDED_NATS
+    other = next(c for c in ranked[1:] if c.family != best.family
+                 or minimal_repeat(c.pattern).shape != minimal_repeat(best.pattern).shape)
+    return best.score - other.score
+
+
+def test_evidence_for_the_family_grows_with_what_the_cells_show():
+    assert other_family_gap(score_patterns(noisy_logits(twill(1, 3), (12, 12), strength=3.0, seed=4))) > DECIDED_NATS
+    assert other_family_gap(score_patterns(noisy_logits(twill(1, 3), (12, 12), strength=0.05, seed=4))) < DECIDED_NATS
 
 
 def test_the_lattice_covers_the_photo_in_whole_cells_at_the_repeats_phase():

@@ -6,16 +6,20 @@ question; docs/capture.md, "The pattern decision").
 2. :func:`classify_cells` — which yarn is on top in each of them, by the cell classifier
    (:mod:`.cell_classifier`): a log-odds per cell;
 3. :func:`fold` — those log-odds summed over the cells that a repeat of a given shape maps
-   onto one another, for every repeat shape the lattice can show twice;
-4. :func:`rank_weaves` — every named weave (:func:`weavecap.estimate.sampling.named_weaves`:
+   onto one another, for every repeat shape the lattice can show (at the lattice's phase the
+   classifier is surest of, :data:`PHASES`);
+4. :func:`score_patterns` — every named weave (:func:`weavecap.estimate.sampling.named_weaves`:
    plain, twills, satins, baskets and hopsacks, ribs, herringbones and point twills, with
    their parameters) at every phase, and for every repeat shape the best free ("custom")
    pattern, each scored by how well it explains the cells' log-odds less what it costs to
    describe (:func:`score_patterns`);
-5. :func:`decide` — the best of them, and how sure the photo is of it: the score gap to the
-   best *different* weave (its evidence, in nats). Where the evidence is short of
-   :data:`DECIDED_NATS`, the joint fit's annealing against the forward model still has its
-   say (:func:`weavecap.fit.rounds.fit_registered`); where it is above, the pattern is fixed.
+5. :func:`decide` — the best of them, and how sure the photo is of its family and repeat:
+   the score gap to the best weave of another family or repeat (its evidence, in nats). The
+   runner prepares the photo at that repeat and the fit's annealing starts from the decided
+   pattern; from :data:`DECIDED_NATS` on, family and repeat are settled
+   (:func:`weavecap.fit.rounds.family_check` holds the fit to them), while which face, which
+   direction, where a float ends, the fit chooses (the classifier can misjudge where a float
+   ends; the forward model's loss cannot, on photos it renders well).
 
 The score is a description length (the minimum description length principle): a pattern's
 log-likelihood of the cells' states under the classifier's calibrated probabilities, less
@@ -237,10 +241,12 @@ class PatternDecision:
     pattern : (r_e, r_a) uint8, 1 = weft on top: the chosen weave's minimal repeat, in the
         phase of the lattice's first cell (:meth:`pattern_at` moves it to other cells').
     name, family : its name and family (:func:`weavecap.estimate.weave_name.weave_name`).
-    evidence : its score less that of the best different weave, nats (≥ 0).
-    decided : evidence ≥ :data:`DECIDED_NATS`: the joint fit keeps the pattern.
+    evidence : its score less that of the best weave of another family or repeat, nats (≥ 0).
+    decided : a named weave with evidence ≥ :data:`DECIDED_NATS`: its family and repeat are
+        settled (:func:`weavecap.fit.rounds.family_check`); which face, which direction, where a
+        float ends, the joint fit still chooses.
     lattice : the photo's lattice the cells were classified on; logits : (n_e, n_a) their log-odds.
-    runner_up : the best different weave's name.
+    runner_up : the name of the best weave of another family or repeat.
     candidates : the best few, for the report.
     phase : (rows, cols) the half cells the lattice was moved from the cells given
         (:data:`PHASES`: the one the classifier is surest on); confidences : each phase's.
@@ -328,14 +334,16 @@ def decide(image: np.ndarray, cells: CellGrid, *, photo: np.ndarray | None = Non
     if not ranked:
         return None
     best = ranked[0]
-    other = next((c for c in ranked[1:] if not same_weave(c.pattern, best.pattern)), None)
-    evidence = best.score - other.score if other is not None else float("inf")
     pattern = minimal_repeat(best.pattern)
+    # the evidence for the family and the repeat: the gap to the best of another family or repeat
+    other = next((c for c in ranked[1:] if c.family != best.family or minimal_repeat(c.pattern).shape != pattern.shape),
+                 None)
+    evidence = best.score - other.score if other is not None else float("inf")
     kept = [best] + [c for c in ranked[1:] if not same_weave(c.pattern, best.pattern)][:4]
     return PatternDecision(pattern=pattern, name=best.name, family=weave_family(best.name), evidence=float(evidence),
-                           decided=bool(evidence >= DECIDED_NATS), lattice=lattice, logits=logits,
-                           runner_up=other.name if other is not None else "", candidates=kept, phase=phase,
-                           confidences={f"{k[0]:g},{k[1]:g}": round(v[2], 3) for k, v in readings.items()})
+                           decided=bool(evidence >= DECIDED_NATS and best.family != "custom"), lattice=lattice,
+                           logits=logits, runner_up=other.name if other is not None else "", candidates=kept,
+                           phase=phase, confidences={f"{k[0]:g},{k[1]:g}": round(v[2], 3) for k, v in readings.items()})
 
 
 def photo_period(prepared) -> tuple[int, int]:
@@ -355,8 +363,9 @@ def decide_on_photo(rgb: np.ndarray, prepared, cells: CellGrid, *, classifier: C
 
     ``prepared`` (:class:`weavecap.prepare.Prepared`) and ``cells`` (one repeat in the
     regularized box, on the gaps: :func:`weavecap.fit.target.align_cells`) as the runner has
-    them; ``rgb`` the photo as loaded. Where the decided weave repeats over another number of
-    yarns than preparation's repeat (a twill whose 2 × 2 look preparation took for the repeat,
+    them; ``rgb`` the photo as loaded. The cells are moved onto the decision's lattice (its
+    phase). Where the weave decided (:attr:`PatternDecision.decided`) repeats over another
+    number of yarns than preparation's repeat (a twill whose 2 × 2 look preparation took for the repeat,
     a satin it read as 3 × 3), the photo is prepared again with that repeat given — the kernel
     PCA of §4.2 averages over repeats, and over the wrong ones it blurs the weave away — unless
     that preparation fails, when the first is kept and the decision dropped.
@@ -371,6 +380,8 @@ def decide_on_photo(rgb: np.ndarray, prepared, cells: CellGrid, *, classifier: C
                       homography=prepared.rectification.homography, classifier=classifier,
                       multiple_of=photo_period(prepared))
     if decision is None:
+        return prepared, cells, decision
+    if decision.pattern.shape != cells.shape and not decision.decided:  # a start only where it fits the repeat
         return prepared, cells, decision
     if decision.pattern.shape != cells.shape:
         try:
