@@ -14,7 +14,6 @@ from registered_fits import registered_fit as _registered_fit
 from weavecap import params
 from weavecap.estimate.cells import CellGrid
 from weavecap.estimate.forward import RepeatRenderer
-from weavecap.estimate.sampling import twill as woven_twill
 from weavecap.fit.config import PRESETS
 from weavecap.fit.target import correlation_shift, lattice_drift, mean_repeat, register_cells
 from weavecap.model.render import as_photographed, blurred_mse, mse_and_gradients, white_level
@@ -844,29 +843,3 @@ def test_a_pattern_registered_a_cell_off_is_refitted_at_the_phase_the_colours_sh
                                     fixed=frozenset(), seed=0, budget_s=None)
     assert none is None and not tried
 
-
-@pytest.mark.parametrize("fitted, decided, tried", [
-    (np.array([[1, 0], [0, 1]]), woven_twill(2, 2, step=1), True),   # a twill fitted as plain: the decided twill
-    (woven_twill(3, 1, step=1), woven_twill(2, 2, step=-1), False),       # another twill of the repeat: the fit's choice
-    (woven_twill(2, 1), woven_twill(2, 2), True),                          # another repeat: the decided one
-])
-def test_the_fit_is_held_to_the_family_and_repeat_the_cells_show(monkeypatch, fitted, decided, tried):
-    from weavecap.estimate.weave_name import equal_up_to_shift
-    from weavecap.fit import rounds
-
-    fit_of = partial(_registered_fit, target=None)
-    patterns = []
-
-    def fake_round(prepared, cells, fabric, rig, config, *, fixed, **kw):
-        patterns.append((fabric.pattern, "pattern" in fixed))
-        return fit_of(fabric, 0.02)  # worse than the fit: taken all the same
-
-    monkeypatch.setattr(rounds, "_fit_round", fake_round)
-    best = fit_of(params.load(FIXTURES / "plain.json").replace({"pattern": fitted}), 0.01)
-    kept, note = rounds.family_check(None, best, PRESETS["normal"], decided=np.asarray(decided, np.uint8), c=16,
-                                     fixed=frozenset(), seed=0, budget_s=None)
-    if not tried:
-        assert not patterns and kept is best and note is None
-        return
-    assert len(patterns) == 2 and all(fixed and equal_up_to_shift(p, decided) for p, fixed in patterns)
-    assert note["taken"] and equal_up_to_shift(kept.result.fabric.pattern, decided)

@@ -236,6 +236,7 @@ def capture_under_rig(photo_path: str | Path, options: CaptureOptions, *,
         timings["decide"] = time.perf_counter() - t
     decided = (decision.pattern_at(shifted(cells, prepared.regularized.box))
                if decision is not None and decision.pattern.shape == cells.shape else None)
+    known = options.pattern if options.pattern is not None else decided if decision and decision.decided else None
     shape = cells.shape
 
     config = options.config
@@ -255,7 +256,7 @@ def capture_under_rig(photo_path: str | Path, options: CaptureOptions, *,
         report["pre_estimation"] = {"parameters_from": "start_from"}
     else:
         pre = pre_estimate(prepared.regularized.image, cells, light=light, use_network=options.use_network,
-                           start=decided)
+                           pattern=None if options.pattern is not None else known, start=decided)
         start = pre.fabric
         report["pre_estimation"] = pre.to_json()
     if decision is not None:
@@ -274,7 +275,7 @@ def capture_under_rig(photo_path: str | Path, options: CaptureOptions, *,
     rig = light_rig(light)
     t = time.perf_counter()
     # what this photo can show: values no render of its repeat sees are held, not fitted
-    plan = modelled.plan(start, cell_px=c, fixed=frozenset({"pattern"}) if options.pattern is not None else frozenset())
+    plan = modelled.plan(start, cell_px=c, fixed=frozenset({"pattern"}) if known is not None else frozenset())
     unseen = {k: se for k, se in standard_errors(plan.start, render_numpy(build_scene(
         plan.start, View(tiles=(1, 1), size=c * max(shape), spp=config.spp), light=rig)), blur_px=0.0, light=rig,
         spp=config.spp, fixed=plan.fixed).items() if not np.isfinite(se)}
@@ -284,8 +285,7 @@ def capture_under_rig(photo_path: str | Path, options: CaptureOptions, *,
         + (f", {options.budget_s:g} s budget" if options.budget_s else "") + ")")
     t = time.perf_counter()
     fitted = fit_registered(prepared, cells, plan.start, options, c=c, fixed=plan.fixed, rig=rig,
-                            explore_patterns=options.pattern is None and options.start_from is None,
-                            decided=decided if decision is not None and decision.decided else None)
+                            explore_patterns=known is None and options.start_from is None)
     result, blur_px, target, photo_cells = fitted.result, fitted.blur_px, fitted.target, fitted.cells
     report["pre_estimation"].update(fitted.notes)
     timings["fit"] = time.perf_counter() - t
@@ -313,7 +313,7 @@ def capture_under_rig(photo_path: str | Path, options: CaptureOptions, *,
         "psnr_db": round(psnr(rendered, target), 3), "iterations": result.iterations,
         "pattern_confidence": round(confidence, 4), "mse": result.loss, "stopped": result.stopped,
         "seconds": round(result.seconds, 3), "cell_px": c, "spp": config.spp, "moves": result.moves,
-        "pattern_fixed": options.pattern is not None, "fidelity": faithful.to_json(),
+        "pattern_fixed": known is not None, "fidelity": faithful.to_json(),
         "parameters": {key: {"standard_error": round(se, 4) if np.isfinite(se) else None,
                              "determined": bool(se <= DETERMINED_SE)} for key, se in errors.items()},
     }

@@ -9,7 +9,6 @@ from weavecap.estimate.cells import CellGrid
 from weavecap.estimate.decide import (DECIDED_NATS, fold, lattice_offset, photo_lattice, same_weave,
                                       score_patterns)
 from weavecap.estimate.sampling import herringbone, satin, twill
-from weavecap.estimate.weave_name import minimal_repeat
 
 
 def noisy_logits(pattern, lattice, *, strength=2.0, flips=0.0, seed=0, phase=(0, 0)):
@@ -51,17 +50,16 @@ def test_a_custom_pattern_wins_only_when_the_cells_show_it_clearly():
     assert faint[0].family != "custom"
 
 
-def other_family_gap(ranked):
-    """The best candidate's score less the best of another family or repeat (decide's evidence)."""
-    best = ranked[0]
-    other = next(c for c in ranked[1:] if c.family != best.family
-                 or minimal_repeat(c.pattern).shape != minimal_repeat(best.pattern).shape)
-    return best.score - other.score
+def evidence_per_cell(ranked, cells):
+    """The best candidate's score less the best different weave's, per cell (decide's evidence)."""
+    other = next(c for c in ranked[1:] if not same_weave(c.pattern, ranked[0].pattern))
+    return (ranked[0].score - other.score) / cells
 
 
-def test_evidence_for_the_family_grows_with_what_the_cells_show():
-    assert other_family_gap(score_patterns(noisy_logits(twill(1, 3), (12, 12), strength=3.0, seed=4))) > DECIDED_NATS
-    assert other_family_gap(score_patterns(noisy_logits(twill(1, 3), (12, 12), strength=0.05, seed=4))) < DECIDED_NATS
+def test_evidence_grows_with_what_the_cells_show():
+    sure = score_patterns(noisy_logits(twill(1, 3), (12, 12), strength=6.0, seed=4))
+    faint = score_patterns(noisy_logits(twill(1, 3), (12, 12), strength=0.05, seed=4))
+    assert evidence_per_cell(sure, 144) > DECIDED_NATS > evidence_per_cell(faint, 144)
 
 
 def test_the_lattice_covers_the_photo_in_whole_cells_at_the_repeats_phase():

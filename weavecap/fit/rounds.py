@@ -159,33 +159,6 @@ def pattern_scores(prepared, cells, start: wparams.Fabric, rig: LightRig, patter
     return scores
 
 
-def family_check(prepared, best: RegisteredFit, config: FitConfig, *, decided: np.ndarray, c: int,
-                 fixed: frozenset[str], seed: int, budget_s: float | None) -> tuple[RegisteredFit, dict | None]:
-    """The weave family and repeat the pattern decision settled (:mod:`weavecap.estimate.decide`)
-    against the fit's: where the fitted pattern is of another family (plain, twill, satin,
-    basket, rib, custom) or repeats over another number of yarns than ``decided``, ``decided``
-    is fitted with its pattern fixed (:func:`refit`, two rounds) and taken, whatever its loss.
-
-    The forward model cannot render real yarns (hairy, plied, twisted), and on real cloth its
-    loss and the edge votes prefer other families: on the 66 real fabricnet photos the family
-    came out right on 27 of 45 fitted, twills read as plain or as ribs, satins as twills. The
-    classifier reads the family and the repeat off what real photos show; within them — which
-    face, which direction, where a float ends — the fit's own choice stands, where the forward
-    model renders the photo well the surer one. Returns the fit kept and the report's note
-    (``pre_estimation.family``), or None when the fit agrees."""
-    from ..estimate.weave_name import minimal_repeat, weave_family, weave_name
-
-    fitted = best.result.fabric.pattern
-    if (weave_family(weave_name(fitted)) == weave_family(weave_name(decided))
-            and minimal_repeat(fitted).shape == minimal_repeat(decided).shape):
-        return best, None
-    trial = refit(prepared, best, best.result.fabric.replace({"pattern": decided}), config, c=c,
-                  fixed=fixed | {"pattern"}, seed=seed, budget_s=budget_s, rounds=2)
-    note = {"fitted": weave_name(fitted), "decided": weave_name(decided), "loss": round(trial.result.loss, 6),
-            "fitted_loss": round(best.result.loss, 6), "taken": True}
-    return trial, note
-
-
 def photo_votes(prepared, cells, fabric: wparams.Fabric, rig: LightRig, *, c: int) -> np.ndarray:
     """The model-free votes (:func:`weavecap.estimate.orientation.cell_votes`) of the photo's
     median repeat, registered on a render of ``fabric`` (so that its cells run from gap to gap
@@ -521,8 +494,7 @@ def choose_rig(prepared, cells, fabric: wparams.Fabric, *, c: int, spp: int,
 
 
 def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptions, *, c: int,
-                   fixed: frozenset[str], explore_patterns: bool, rig: LightRig | None = None,
-                   decided: np.ndarray | None = None) -> RegisteredFit:
+                   fixed: frozenset[str], explore_patterns: bool, rig: LightRig | None = None) -> RegisteredFit:
     """The joint fit (§6), alternating with the registration of the photo's cells.
 
     The target is the photo's median repeat on cells registered against a render of the
@@ -566,10 +538,6 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
     ``rig`` is the light rig to start from (default: ``options.light``'s, at unit gain); the
     gain it carries (the photo's exposure and white balance) is fitted along (unless
     ``"light.gain"`` is in ``fixed``), and each round starts from the last one's.
-
-    ``decided``: the pattern whose family and repeat the pattern decision settled
-    (:mod:`weavecap.estimate.decide`); the last of the pattern's stages, :func:`family_check`,
-    holds the fit to them.
     """
     from ..model.scene import light_rig
 
@@ -716,12 +684,6 @@ def fit_registered(prepared, cells, start: wparams.Fabric, options: CaptureOptio
             notes[name] = note
             if note["taken"]:
                 history += best.result.history
-    if decided is not None and not spent():  # last: the family and repeat the photo's cells show
-        best, note = family_check(prepared, best, per_round, decided=decided, c=c, fixed=fixed,
-                                  seed=options.seed + k + 3, budget_s=budget(runs - 1))
-        if note is not None:
-            notes["family"] = note
-            history += best.result.history
     best = colour_check(best, per_round, fixed=fixed)
     result = dataclasses.replace(best.result, history=history, iterations=len(history),
                                  seconds=time.perf_counter() - t0)
