@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from weavecap.estimate.cells import CellGrid
-from weavecap.estimate.decide import (DECIDED_NATS, fold, lattice_offset, photo_lattice, same_weave,
-                                      score_patterns)
+from weavecap.estimate.decide import DECIDED_NATS, fold, lattice_offset, photo_lattice, score_patterns
 from weavecap.estimate.sampling import herringbone, satin, twill
+from weavecap.estimate.weave_name import equal_up_to_shift
 
 
 def noisy_logits(pattern, lattice, *, strength=2.0, flips=0.0, seed=0, phase=(0, 0)):
@@ -38,13 +38,13 @@ def test_fold_sums_each_cells_log_likelihood_over_the_repeat():
 def test_a_named_weave_wins_even_with_a_fifth_of_the_cells_wrong(pattern, lattice):
     logits = noisy_logits(pattern, lattice, flips=0.2, seed=1, phase=(1, 2))
     ranked = score_patterns(logits)
-    assert same_weave(ranked[0].pattern, pattern), ranked[0].name
+    assert equal_up_to_shift(ranked[0].pattern, pattern), ranked[0].name
 
 
 def test_a_custom_pattern_wins_only_when_the_cells_show_it_clearly():
     custom = np.array([[1, 1, 0, 1], [0, 1, 0, 0], [1, 0, 1, 0], [0, 0, 1, 1]], dtype=np.uint8)
     clear = score_patterns(noisy_logits(custom, (16, 16), strength=3.0, seed=2))
-    assert clear[0].family == "custom" and same_weave(clear[0].pattern, custom)
+    assert clear[0].family == "custom" and equal_up_to_shift(clear[0].pattern, custom)
     # with most cells barely decided the photo cannot pay for sixteen free cells
     faint = score_patterns(noisy_logits(custom, (8, 8), strength=0.3, flips=0.3, seed=2))
     assert faint[0].family != "custom"
@@ -52,7 +52,7 @@ def test_a_custom_pattern_wins_only_when_the_cells_show_it_clearly():
 
 def evidence_per_cell(ranked, cells):
     """The best candidate's score less the best different weave's, per cell (decide's evidence)."""
-    other = next(c for c in ranked[1:] if not same_weave(c.pattern, ranked[0].pattern))
+    other = next(c for c in ranked[1:] if not equal_up_to_shift(c.pattern, ranked[0].pattern))
     return (ranked[0].score - other.score) / cells
 
 

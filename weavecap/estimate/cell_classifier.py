@@ -65,14 +65,8 @@ def network_input(canvas: np.ndarray) -> np.ndarray:
 
 
 def local_mean(channel: np.ndarray) -> np.ndarray:
-    """A channel's mean over about two cells (a Gaussian of σ = 2 cells), computed on a grid of
-    half a cell (area-averaged down, bilinear up: the Gaussian is that smooth) — a large photo's
-    canvas in milliseconds rather than a second."""
-    h, w = channel.shape
-    step = CELL_PX // 2
-    small = cv2.resize(channel, (max(1, w // step), max(1, h // step)), interpolation=cv2.INTER_AREA)
-    small = cv2.GaussianBlur(small, (0, 0), 2.0 * CELL_PX / step, borderType=cv2.BORDER_REFLECT)
-    return cv2.resize(small, (w, h), interpolation=cv2.INTER_LINEAR)
+    """A channel's mean over about two cells: a Gaussian of σ = 2 cells, borders reflected."""
+    return cv2.GaussianBlur(channel, (0, 0), 2.0 * CELL_PX, borderType=cv2.BORDER_REFLECT)
 
 
 def build_network(widths: tuple[int, ...] = WIDTHS):

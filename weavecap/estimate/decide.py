@@ -3,22 +3,23 @@ question; docs/capture.md, "The pattern decision").
 
 1. :func:`photo_lattice` — every whole cell of the photo's yarn lattice, not only one repeat:
    many views of each cell of the repeat are what make the decision robust;
-2. :func:`classify_cells` — which yarn is on top in each of them, by the cell classifier
-   (:mod:`.cell_classifier`): a log-odds per cell;
-3. :func:`fold` — those log-odds summed over the cells that a repeat of a given shape maps
-   onto one another, for every repeat shape the lattice can show (at the lattice's phase the
-   classifier is surest of, :data:`PHASES`);
-4. :func:`score_patterns` — every named weave (:func:`weavecap.estimate.sampling.named_weaves`:
-   plain, twills, satins, baskets and hopsacks, ribs, herringbones and point twills, with
-   their parameters) at every phase, and for every repeat shape the best free ("custom")
-   pattern, each scored by how well it explains the cells' log-odds less what it costs to
-   describe (:func:`score_patterns`);
+2. :func:`source_canvas` — the cells read from the photo as loaded, 16 px a cell, at each of
+   the lattice's half-cell phases (:data:`PHASES`);
+3. :func:`classify_cells` — which yarn is on top in each cell, by the cell classifier
+   (:mod:`.cell_classifier`): a log-odds per cell; the phase it is surest of is kept
+   (:func:`confidence`);
+4. :func:`score_patterns` — the log-odds folded over every repeat shape the lattice can show
+   (:func:`fold`), then every named weave (:func:`weavecap.estimate.sampling.named_weaves`:
+   plain, twills, satins, baskets and hopsacks, ribs, herringbones and point twills, with their
+   parameters) at its best phase, and per repeat shape the best free ("custom") pattern, each
+   scored by how well it explains the cells less what it costs to describe;
 5. :func:`decide` — the best of them, and how sure the photo is of it: the score gap to the
    best *different* weave per cell of the lattice (its evidence, in nats a cell). From
    :data:`DECIDED_NATS` on, the pattern is fixed for the joint fit (the photo prepared again at
-   its repeat where preparation found another); short of it, the fit's annealing and its
-   exploration of starts, votes and named weaves (:func:`weavecap.fit.rounds.fit_registered`)
-   start from the decided pattern, where its repeat is preparation's.
+   its repeat where preparation found another, :func:`decide_on_photo`); short of it, the fit's
+   annealing and its exploration of starts, votes and named weaves
+   (:func:`weavecap.fit.rounds.fit_registered`) start from the decided pattern, where its
+   repeat is preparation's.
 
 The score is a description length (the minimum description length principle): a pattern's
 log-likelihood of the cells' states under the classifier's calibrated probabilities, less
@@ -43,8 +44,9 @@ from .weave_name import cyclic_shifts, equal_up_to_shift, minimal_repeat, weave_
 #: the largest repeat side the decision considers (a herringbone's legs of 12: 24 yarns)
 MAX_REPEAT = 24
 #: the evidence (nats per cell of the lattice) from which the decision fixes the pattern for the
-#: joint fit: on the DEV real photos the patterns decided right had 0.47 or more, the wrong ones
-#: 0.25 or less; on the procedural benches 0.77 or more and 0.04 or less (docs/capture.md)
+#: joint fit: on the DEV real photos the patterns it names right had 0.58 or more where it was
+#: sure, the wrong ones 0.25 or less; on the procedural benches 0.66 or more, and 0.05 or less
+#: (docs/capture.md, "The pattern decision")
 DECIDED_NATS = 0.4
 #: the fewest cells a side for a lattice to be classified at all
 MIN_LATTICE = 4
@@ -227,12 +229,6 @@ def score_patterns(logits: np.ndarray, *, weights: np.ndarray | None = None, max
     return out
 
 
-def same_weave(a: np.ndarray, b: np.ndarray) -> bool:
-    """Whether two patterns tile the same cloth up to a shift, tiling included."""
-    ma, mb = minimal_repeat(a), minimal_repeat(b)
-    return ma.shape == mb.shape and equal_up_to_shift(ma, mb)
-
-
 @dataclass(frozen=True)
 class PatternDecision:
     """What :func:`decide` found.
@@ -334,7 +330,7 @@ def decide(image: np.ndarray, cells: CellGrid, *, photo: np.ndarray | None = Non
     if not ranked:
         return None
     best = ranked[0]
-    kept = [best] + [c for c in ranked[1:] if not same_weave(c.pattern, best.pattern)][:4]
+    kept = [best] + [c for c in ranked[1:] if not equal_up_to_shift(c.pattern, best.pattern)][:4]
     cells_seen = float(edge_weights(lattice.shape).sum())
     evidence = (best.score - kept[1].score) / cells_seen if len(kept) > 1 else float("inf")
     return PatternDecision(pattern=minimal_repeat(best.pattern), name=best.name, family=weave_family(best.name),

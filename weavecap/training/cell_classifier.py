@@ -25,8 +25,6 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Callable
-
 import numpy as np
 
 from ..estimate.cell_classifier import CELL_PX, WEIGHTS_FILE, WIDTHS, build_network, count_parameters, network_input
@@ -34,7 +32,7 @@ from ..estimate.cell_photos import MARGIN, WEAVE_KINDS, cell_sample, photographe
 from ..photo import linear_to_srgb, srgb_to_linear
 from . import trainer as skeleton
 
-Progress = Callable[[str], None]
+Progress = skeleton.Progress
 
 
 @dataclass(frozen=True)
@@ -63,11 +61,8 @@ class CellTrainConfig:
     def shards(self) -> int:
         return -(-self.images // self.shard_images)
 
-    def data_settings(self) -> dict:
-        return {k: getattr(self, k) for k in ("seed", "images", "shard_images", "heldout_shards", "cells",
-                                              "forward_share", "per_geometry")}
-
     def train_settings(self) -> dict:
+        """The settings a checkpoint depends on (:class:`weavecap.training.trainer.Trainer`)."""
         return {k: getattr(self, k) for k in ("seed", "epochs", "batch", "lr", "weight_decay")} | {
             "widths": list(self.widths)}
 
