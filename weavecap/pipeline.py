@@ -112,16 +112,20 @@ def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), 
         return Capture(report=reports.rejected(photo_path, options, prepared, {**clock.seconds, "total": clock.total()},
                                                loaded=loaded), images={"diagnosis.png": prepared.diagnosis})
     grid = clock("cells", stages.cells, prepared)
+    if options.pattern is None and options.start_from is None:
+        say("deciding the pattern from the photo's cells")
+    decided = clock("decide", stages.decide, loaded, prepared, grid, options)
+    prepared, grid = decided.prepared, decided.grid
 
     def under(light: str) -> stages.Captured:
         """One capture under ``light`` from the one preparation."""
         rig = _Clock()
         say(f"pre-estimating a {grid.shape[0]}x{grid.shape[1]} repeat (pattern, colours, parameters)")
-        start = rig("pre_estimate", stages.pre_estimate, prepared, grid, options, light)
-        planned = rig("plan", stages.plan, start, grid, options)
+        start = rig("pre_estimate", stages.pre_estimate, decided, options, light)
+        planned = rig("plan", stages.plan, start, decided, options)
         say(f"fitting ({options.quality}: up to {options.config.iterations} steps"
             + (f", {options.budget_s:g} s budget" if options.budget_s else "") + ")")
-        fitted = rig("fit", stages.fit, start, grid, planned, options)
+        fitted = rig("fit", stages.fit, start, decided, planned, options)
         say("measuring how well the photo determines each parameter")
         done = rig("finish", stages.finish, start, planned, fitted, options)
         return stages.Captured(start=start, plan=planned, fitted=fitted, finished=done, seconds=rig.seconds)
@@ -134,7 +138,7 @@ def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), 
     if len(searched.captures) > 1:
         timings["captures"] = {light: sum(cap.seconds.values()) for light, cap in searched.captures.items()}
     timings["total"] = clock.total()
-    report = reports.finished(photo_path, options, loaded=loaded, prepared=prepared, searched=searched,
+    report = reports.finished(photo_path, options, loaded=loaded, decided=decided, searched=searched,
                               timings=timings)
     return Capture(report=report, fabric=kept.finished.fabric, images=_images(prepared, kept),
                    history=kept.fitted.result.history)

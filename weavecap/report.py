@@ -15,8 +15,7 @@ import numpy as np
 
 if TYPE_CHECKING:
     from .fit.rigs import Searched
-    from .prepare import Prepared
-    from .stages import Captured, CaptureOptions, Loaded, Rejection
+    from .stages import Captured, CaptureOptions, Decided, Loaded, Rejection
 
 FORMAT = "weavecap.report/1"
 
@@ -63,7 +62,7 @@ def rejected(photo_path: str | Path, options: CaptureOptions, rejection: Rejecti
     return report
 
 
-def finished(photo_path: str | Path, options: CaptureOptions, *, loaded: Loaded, prepared: Prepared,
+def finished(photo_path: str | Path, options: CaptureOptions, *, loaded: Loaded, decided: Decided,
              searched: Searched, timings: dict) -> dict:
     """The report of a capture: the kept capture of ``searched`` (each a
     :class:`weavecap.stages.Captured`), the rig search's note when it made several, and
@@ -78,15 +77,18 @@ def finished(photo_path: str | Path, options: CaptureOptions, *, loaded: Loaded,
     report = neutral(photo_path, options)
     report["input"].update(loaded.input)
     report["status"] = "ok"
+    prepared = decided.prepared
     prep = prepared.to_json()
     report["rectification"], report["grid"] = prep["rectification"], prep["grid"]
+    if decided.repeat_decided:
+        report["grid"]["repeat_decided"] = True
     if options.pattern is not None or options.start_from is not None:
         report["grid"].update(repeat_given=True, repeat_in_photo=prep["checks"]["repeat_in_photo"])
     report["fit"] = {
         "psnr_db": round(psnr(done.rendered, fitted.target), 3), "iterations": result.iterations,
         "pattern_confidence": round(done.confidence, 4), "mse": result.loss, "stopped": result.stopped,
         "seconds": round(result.seconds, 3), "cell_px": start.cell_px, "spp": config.spp, "moves": result.moves,
-        "pattern_fixed": options.pattern is not None,
+        "pattern_fixed": "pattern" in planned.fixed,
         "fidelity": {**done.fidelity.to_json(), "photo_scale": done.at_scale.figures.to_json()},
         "parameters": {key: {"standard_error": round(se, 4) if np.isfinite(se) else None,
                              "determined": bool(se <= DETERMINED_SE)} for key, se in done.errors.items()},

@@ -1,7 +1,7 @@
 """The stages of a capture (Wu et al. 2025 §4–6), each a function with a typed result.
 
-load → prepare (§4) → cells → pre-estimate (§5) → plan → fit (§6.1–6.2) → finish (§6.3 and
-the figures). :func:`weavecap.pipeline.capture` orders them (and runs pre-estimate to finish
+load → prepare (§4) → cells → decide → pre-estimate (§5) → plan → fit (§6.1–6.2) → finish
+(§6.3 and the figures). :func:`weavecap.pipeline.capture` orders them (and runs pre-estimate to finish
 once per light rig a search asks for); :mod:`weavecap.report` assembles report.json from their
 results. A photo that is not a resolvable woven fabric ends at load or prepare as a
 :class:`Rejection`, a value, not an exception.
@@ -22,6 +22,7 @@ from .params import Fabric
 
 if TYPE_CHECKING:  # types only: the stages import their modules when they run
     from .estimate.cells import CellGrid
+    from .estimate.decide import PatternDecision
     from .fit.compare import PhotoScale
     from .fit.fidelity import Fidelity
     from .fit.modelled import Plan
@@ -148,6 +149,46 @@ def cells(prepared: Prepared) -> CellGrid:
 
 
 @dataclass(frozen=True)
+class Decided:
+    """The decide stage: the pattern from what the photo's cells show
+    (:func:`weavecap.estimate.decide.decide_on_photo`, docs/capture.md).
+
+    Attributes
+    ----------
+    prepared, grid : the preparation and its repeat's cells, prepared again where the decided
+        weave repeats over another number of yarns (``repeat_decided``), on the decision's lattice
+    decision : the decision, or None (a given pattern or warm start; nothing decided)
+    start : (n_e, n_a) the decided pattern registered on ``grid`` (the pre-estimate's start), or None
+    known : the pattern the fit holds: the given one, or the decided one where the evidence
+        settles it (:attr:`weavecap.estimate.decide.PatternDecision.decided`), else None
+    repeat_decided : whether the photo was prepared again at the decided repeat
+    """
+
+    prepared: Prepared
+    grid: CellGrid
+    decision: PatternDecision | None = None
+    start: np.ndarray | None = None
+    known: np.ndarray | None = None
+    repeat_decided: bool = False
+
+
+def decide(loaded: Loaded, prepared: Prepared, grid: CellGrid, options: CaptureOptions) -> Decided:
+    """Decide the pattern from the photo's cells (the cell classifier's evidence over the
+    lattice, :mod:`weavecap.estimate.decide`), unless a pattern or start is given."""
+    from .estimate.decide import decide_on_photo
+    from .fit.target import shifted
+
+    if options.pattern is not None or options.start_from is not None:
+        return Decided(prepared, grid, known=options.pattern)
+    again, grid, decision = decide_on_photo(loaded.photo.rgb, prepared, grid)
+    start = (decision.pattern_at(shifted(grid, again.regularized.box))
+             if decision is not None and decision.pattern.shape == grid.shape else None)
+    return Decided(again, grid, decision, start=start,
+                   known=start if decision is not None and decision.decided else None,
+                   repeat_decided=again is not prepared)
+
+
+@dataclass(frozen=True)
 class Start:
     """The pre-estimate stage under one ``--light`` (§5): what the fit starts from.
 
@@ -176,17 +217,18 @@ class Start:
     cell_px: int
 
 
-def pre_estimate(prepared: Prepared, grid: CellGrid, options: CaptureOptions, light: str) -> Start:
+def pre_estimate(decided: Decided, options: CaptureOptions, light: str) -> Start:
     """The start of the fit under ``light`` (a rig's name or ``auto``): the photo's exposure
     under ``--exposure photo`` (the same fabric shot a stop darker or brighter is fitted alike;
-    the outputs show it as shot), the pre-estimate (pattern, colours, initializer) or the given
-    start, and under ``auto`` the rig that explains the photo best."""
+    the outputs show it as shot), the pre-estimate (pattern, colours, initializer; from the
+    decided pattern) or the given start, and under ``auto`` the rig that explains the photo best."""
     from .estimate.preestimate import photo_exposure
     from .estimate.preestimate import pre_estimate as estimate
     from .fit.rigs import choose_rig
     from .fit.threads import flattened
 
     config = options.config
+    prepared, grid = decided.prepared, decided.grid
     c = cell_px_for(config, grid.shape)
     rig, reason = ("both", "auto") if light == "auto" else (light, "given")
     exposure = None
@@ -196,8 +238,11 @@ def pre_estimate(prepared: Prepared, grid: CellGrid, options: CaptureOptions, li
     if options.start_from is not None:
         fabric, notes = options.start_from, {"parameters_from": "start_from"}
     else:
-        pre = estimate(prepared.regularized.image, grid, light=rig, use_network=options.use_network)
+        pre = estimate(prepared.regularized.image, grid, light=rig, use_network=options.use_network,
+                       pattern=decided.known, start=decided.start)
         fabric, notes = pre.fabric, pre.to_json()
+    if decided.decision is not None:
+        notes["decision"] = decided.decision.to_json()
     if options.pattern is not None:
         fabric = fabric.replace({"pattern": options.pattern})
     coloured = prepared
@@ -210,18 +255,18 @@ def pre_estimate(prepared: Prepared, grid: CellGrid, options: CaptureOptions, li
                  cell_px=c)
 
 
-def plan(start: Start, grid: CellGrid, options: CaptureOptions) -> Plan:
+def plan(start: Start, decided: Decided, options: CaptureOptions) -> Plan:
     """What the fit holds fixed for this photo and why (:func:`weavecap.fit.modelled.photo_plan`):
-    a given pattern, and what the start's render under its rig cannot show."""
+    a given or decided pattern, and what the start's render under its rig cannot show."""
     from .fit.modelled import photo_plan
     from .model.scene import light_rig
 
     return photo_plan(start.fabric, rig=light_rig(start.light), cell_px=start.cell_px,
-                      side_px=start.cell_px * max(grid.shape), spp=options.config.spp,
-                      fixed=frozenset({"pattern"}) if options.pattern is not None else frozenset())
+                      side_px=start.cell_px * max(decided.grid.shape), spp=options.config.spp,
+                      fixed=frozenset({"pattern"}) if decided.known is not None else frozenset())
 
 
-def fit(start: Start, grid: CellGrid, planned: Plan, options: CaptureOptions) -> RegisteredFit:
+def fit(start: Start, decided: Decided, planned: Plan, options: CaptureOptions) -> RegisteredFit:
     """The joint fit, in registration rounds with its starts and end stages
     (:func:`weavecap.fit.rounds.fit_registered`), from the planned start at unit gain: the fit
     solves its own gain (:func:`weavecap.fit.joint.solve_colours`; started at the
@@ -230,9 +275,9 @@ def fit(start: Start, grid: CellGrid, planned: Plan, options: CaptureOptions) ->
     from .fit.rounds import fit_registered
     from .model.scene import light_rig
 
-    return fit_registered(start.prepared, grid, planned.start, options.request, c=start.cell_px, fixed=planned.fixed,
-                          rig=light_rig(start.light),
-                          explore_patterns=options.pattern is None and options.start_from is None)
+    return fit_registered(start.prepared, decided.grid, planned.start, options.request, c=start.cell_px,
+                          fixed=planned.fixed, rig=light_rig(start.light),
+                          explore_patterns=decided.known is None and options.start_from is None)
 
 
 @dataclass(frozen=True)

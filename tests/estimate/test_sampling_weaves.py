@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from weavecap.estimate.sampling import interlaces, regular_weaves, satin, twill
+from weavecap.estimate.sampling import interlaces, named_weaves, regular_weaves, satin, twill
 from weavecap.estimate.weave_name import equal_up_to_shift, weave_name
 
 
@@ -39,3 +39,16 @@ def test_a_named_weave_is_recognised_at_any_phase_and_a_custom_one_is_not():
     # what the report names is named here too: a tiled plain weave, an extended satin
     assert is_named_weave(np.tile(np.array([[1, 0], [0, 1]], dtype=np.uint8), (2, 2)))
     assert is_named_weave(np.array([np.roll([1, 1, 0, 0, 0], 3 * i) for i in range(5)], dtype=np.uint8))
+
+
+@pytest.mark.parametrize("shape, names", [
+    ((4, 8), {"herringbone 1/3, legs of 4 warps", "herringbone 2/2, legs of 4 warps", "herringbone 3/1, legs of 4 warps",
+              "basket 2/4"}),
+    ((2, 2), {"plain"}), ((2, 6), {"rib 3 (warps doubled)"})])
+def test_the_named_library_adds_broken_twills_and_hopsacks(shape, names):
+    weaves = named_weaves(shape)
+    assert {weave_name(p) for p in weaves} == names
+    for i, p in enumerate(weaves):
+        assert p.shape == shape and interlaces(p)
+        assert not any(equal_up_to_shift(p, q) for q in weaves[i + 1:])
+    assert all(any(equal_up_to_shift(r, p) for p in weaves) for r in regular_weaves(shape))

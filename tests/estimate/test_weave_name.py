@@ -5,8 +5,9 @@ import pytest
 from estimate_data import FIXTURES
 
 from weavecap import params
-from weavecap.estimate.sampling import satin, twill
-from weavecap.estimate.weave_name import equal_up_to_shift, minimal_repeat, shift_agreement, weave_name
+from weavecap.estimate.sampling import herringbone, point_twill, satin, twill
+from weavecap.estimate.weave_name import (equal_up_to_shift, minimal_repeat, shift_agreement, weave_family,
+                                          weave_name)
 
 
 
@@ -49,3 +50,22 @@ def test_comparisons_up_to_shift():
     r[0, 0] ^= 1
     assert shift_agreement(p, r)[0] == pytest.approx(24 / 25)
     assert minimal_repeat(np.tile(p, (2, 2))).shape == (5, 5)
+
+
+@pytest.mark.parametrize("pattern, expected", [
+    (herringbone(twill(2, 2), 4), "herringbone 2/2, legs of 4 warps"),
+    (np.roll(1 - herringbone(twill(2, 2), 6), (1, 3), axis=(0, 1)), "herringbone 2/2, legs of 6 warps"),
+    (herringbone(twill(1, 2), 5).T, "herringbone 1/2, legs of 5 wefts"),
+    (point_twill(twill(3, 1), 6), "point twill 3/1, legs of 6 warps"),
+    (np.kron(np.array([[1, 0], [0, 1]]), np.ones((2, 3), int)), "basket 2/3"),
+    (np.kron(np.array([[1, 0], [0, 1]]), np.ones((3, 3), int)), "basket 3/3")])
+def test_broken_twills_and_hopsacks_are_named_with_their_parameters(pattern, expected):
+    assert weave_name(pattern) == expected
+
+
+@pytest.mark.parametrize("name, family", [
+    ("plain", "plain"), ("twill 2/1 S", "twill"), ("herringbone 2/2, legs of 4 warps", "twill"),
+    ("point twill 1/3, legs of 4 wefts", "twill"), ("satin 5/3 extended 2/3", "satin"), ("basket 2/3", "basket"),
+    ("rib 2 (wefts doubled)", "rib"), ("custom 4×6", "custom"), ("custom 1×1 (yarns that never interlace)", "custom")])
+def test_every_name_has_a_family(name, family):
+    assert weave_family(name) == family

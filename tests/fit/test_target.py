@@ -834,3 +834,4 @@ def test_a_pattern_registered_a_cell_off_is_refitted_at_the_phase_the_colours_sh
     same, none = rounds.phase_check(None, _registered_fit(fitted, 0.01, target=grey), PRESETS["normal"], c=16,
                                     fixed=frozenset(), seed=0, budget_s=None)
     assert none is None and not tried
+

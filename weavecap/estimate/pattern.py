@@ -117,6 +117,10 @@ def anneal_pattern(canvas: np.ndarray, renderer: RepeatRenderer, *, start: np.nd
         return cell_errors(renderer.render(), canvas, shape, trim=trim, match_colour=match_colour)
 
     err_now = errors(pattern)
+    if locked is not None and np.all(locked):  # nothing may move: the margins of the pattern as it is
+        margin = errors(1 - pattern) - err_now
+        renderer.set_pattern(pattern)
+        return PatternResult(pattern=pattern, error=float(err_now.mean()), margin=margin, sweeps=0, renders=2)
     renders, sweeps, single, margin = 1, 0, False, np.zeros(shape)
     while sweeps < max_sweeps:
         sweeps += 1
@@ -191,24 +195,26 @@ def fit_radii(canvas: np.ndarray, renderer: RepeatRenderer, *, coarse: bool = Tr
 
 def estimate_pattern(canvas: np.ndarray, renderer: RepeatRenderer, *, start: np.ndarray | None = None,
                      radii: tuple[float, float] | None = None, rounds: int = 3, trim: float = TRIM,
-                     match_colour: bool = True) -> tuple[PatternResult, int]:
+                     match_colour: bool = True, locked: np.ndarray | None = None) -> tuple[PatternResult, int]:
     """Anneal the pattern, fit the radii to it, and again, until the pattern is stable (§5.1).
 
     ``radii``: (warp, weft) also tried by the first radius fit (e.g. the initializer's guess);
     the first fit searches Table 1's whole range, later ones only around their start. The first
     anneal skips the single-flip polish (:func:`anneal_pattern`): with the radii still unknown
-    it is not worth its renders.
+    it is not worth its renders. ``locked``: cells kept as in ``start`` (:func:`anneal_pattern`).
 
     Returns
     -------
     (the last :class:`PatternResult`, rounds made); the renderer keeps pattern and radii.
     """
-    result = anneal_pattern(canvas, renderer, start=start, polish=False, trim=trim, match_colour=match_colour)
+    result = anneal_pattern(canvas, renderer, start=start, polish=False, trim=trim, match_colour=match_colour,
+                            locked=locked)
     made = 1
     while made < rounds:
         fit_radii(canvas, renderer, coarse=made == 1, extra=radii if made == 1 else None, trim=trim,
                   match_colour=match_colour)
-        again = anneal_pattern(canvas, renderer, start=result.pattern, trim=trim, match_colour=match_colour)
+        again = anneal_pattern(canvas, renderer, start=result.pattern, trim=trim, match_colour=match_colour,
+                               locked=locked)
         made += 1
         stable = np.array_equal(again.pattern, result.pattern)
         result = again

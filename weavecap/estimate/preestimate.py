@@ -138,7 +138,8 @@ def photo_exposure(image: np.ndarray, grid: CellGrid, *, light: str = "both") ->
 
 
 def pre_estimate(image: np.ndarray, grid: CellGrid, *, light: str = "both", use_network: bool = True,
-                 predictor: Predictor | None = None) -> PreEstimate:
+                 predictor: Predictor | None = None, start: np.ndarray | None = None,
+                 pattern: np.ndarray | None = None) -> PreEstimate:
     """Pre-estimate a fabric from a regularized photo and the cells of one repeat (§5).
 
     Parameters
@@ -148,6 +149,10 @@ def pre_estimate(image: np.ndarray, grid: CellGrid, *, light: str = "both", use_
     light : the light rig the photo was taken under (§6.4).
     use_network : False bypasses the initializer (§5.3: for inputs it never saw).
     predictor : a loaded initializer; default the shipped weights (defaults if there are none).
+    start : (n_e, n_a) the annealing's start (default the 2/1 twill of §5.1, :func:`twill_start`),
+        e.g. the pattern decision's (:mod:`.decide`) where it was not sure.
+    pattern : (n_e, n_a) a pattern already known (given, or decided from the photo's cells):
+        kept, not annealed; the radii, the network and the colours are estimated with it.
 
     Returns
     -------
@@ -156,7 +161,11 @@ def pre_estimate(image: np.ndarray, grid: CellGrid, *, light: str = "both", use_
     timings: dict[str, float] = {}
     t = time.perf_counter()
     canvas = cell_canvas(image, grid, PATTERN_CELL_PX)
-    start = twill_start(grid.shape)
+    start = np.asarray(pattern if pattern is not None else twill_start(grid.shape) if start is None else start,
+                       dtype=np.uint8)
+    if start.shape != grid.shape:
+        raise ValueError(f"the start pattern {start.shape} is not the grid's repeat {grid.shape}")
+    locked = np.ones(grid.shape, bool) if pattern is not None else None
     rr, first_colours = _first_colours(canvas, start, light)
     # the photo's exposure: a photo brighter than the rig's white fabric is divided by the
     # gain that brings its colours within reach (see PreEstimate.gain)
@@ -168,7 +177,7 @@ def pre_estimate(image: np.ndarray, grid: CellGrid, *, light: str = "both", use_
     rr.set({"warp.body_reflection": grey, "warp.body_subsurface": grey,
             "weft.body_reflection": grey, "weft.body_subsurface": grey})
     rr.white = white_level(image)  # from here on renders are compared as photographed (clipped)
-    first = anneal_pattern(canvas, rr, start=start, polish=False)
+    first = anneal_pattern(canvas, rr, start=start, polish=False, locked=locked)
     timings["pattern"] = time.perf_counter() - t
 
     t = time.perf_counter()
@@ -183,7 +192,7 @@ def pre_estimate(image: np.ndarray, grid: CellGrid, *, light: str = "both", use_
 
     t = time.perf_counter()
     radii = None if values is None else (values["warp.radius"], values["weft.radius"])
-    first, _ = estimate_pattern(canvas, rr, start=first.pattern, radii=radii)
+    first, _ = estimate_pattern(canvas, rr, start=first.pattern, radii=radii, locked=locked)
     timings["pattern"] += time.perf_counter() - t
     t = time.perf_counter()
     geometry = {"pattern": first.pattern, "warp.radius": rr.fabric.warp.radius, "weft.radius": rr.fabric.weft.radius}
@@ -204,7 +213,7 @@ def pre_estimate(image: np.ndarray, grid: CellGrid, *, light: str = "both", use_
 
     t = time.perf_counter()
     result = anneal_pattern(canvas, RepeatRenderer(fabric, cell_px=PATTERN_CELL_PX, light=light,
-                                                   white=white_level(image)), start=first.pattern)
+                                                   white=white_level(image)), start=first.pattern, locked=locked)
     fabric, colours, crr = _coloured(fabric.replace({"pattern": result.pattern}), image, grid, light)
     if np.isfinite(colours.exposure) and colours.exposure > 1.0:  # this fabric needs a little more
         gain, image = gain * colours.exposure, image / np.float32(colours.exposure)

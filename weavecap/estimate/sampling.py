@@ -37,27 +37,101 @@ def regular_weaves(shape: tuple[int, int]) -> list[np.ndarray]:
     """Every named weave with a (wefts, warps) repeat of ``shape``, both faces, distinct up to
     a cyclic shift: plain (2×2), twills a/b in both directions and satins n/s (n×n), basket
     k/k (2k×2k), ribs (2k×2 and 2×2k). Empty for shapes no named weave has."""
-    from .weave_name import equal_up_to_shift
+    return [p for _, p in _distinct(_regular(shape))]
 
+
+def _regular(shape: tuple[int, int]) -> list[tuple[str, np.ndarray]]:
+    """:func:`regular_weaves`' constructions with their families, one face each."""
     n_e, n_a = shape
-    found: list[np.ndarray] = []
+    plain = np.array([[1, 0], [0, 1]], dtype=np.uint8)
+    found: list[tuple[str, np.ndarray]] = []
     if n_e == n_a:
         n = n_e
         if n == 2:
-            found.append(np.array([[1, 0], [0, 1]], dtype=np.uint8))
-        found += [twill(a, n - a, step=d) for a in range(1, n) for d in (-1, 1)] if n >= 3 else []
-        found += [satin(n, k) for k in range(2, n - 1) if gcd(k, n) == 1]
+            found.append(("plain", plain))
+        found += [("twill", twill(a, n - a, step=d)) for a in range(1, n) for d in (-1, 1)] if n >= 3 else []
+        found += [("satin", satin(n, k)) for k in range(2, n - 1) if gcd(k, n) == 1]
         if n % 2 == 0 and n >= 4:
-            found.append(np.kron(np.array([[1, 0], [0, 1]], dtype=np.uint8), np.ones((n // 2, n // 2), dtype=np.uint8)))
+            found.append(("basket", np.kron(plain, np.ones((n // 2, n // 2), dtype=np.uint8))))
     for rows, cols in ((n_e // 2, 1), (1, n_a // 2)):
         if min(n_e, n_a) == 2 and max(n_e, n_a) >= 4 and (rows * 2, cols * 2) == shape:
-            found.append(np.kron(np.array([[1, 0], [0, 1]], dtype=np.uint8), np.ones((rows, cols), dtype=np.uint8)))
-    distinct: list[np.ndarray] = []
-    for p in found + [1 - p for p in found]:
-        p = p.astype(np.uint8)
-        if not any(equal_up_to_shift(p, q) for q in distinct):
-            distinct.append(p)
-    return distinct
+            found.append(("rib", np.kron(plain, np.ones((rows, cols), dtype=np.uint8))))
+    return found
+
+
+def _distinct(tagged: list[tuple[str, np.ndarray]]) -> list[tuple[str, np.ndarray]]:
+    """``tagged`` (family, pattern) and every pattern's other face, each pattern once up to a
+    cyclic shift (the first family it came with)."""
+    from .weave_name import canonical
+
+    distinct: dict[tuple, tuple[str, np.ndarray]] = {}
+    for family, p in tagged + [(f, 1 - p) for f, p in tagged]:
+        distinct.setdefault(canonical(p), (family, p.astype(np.uint8)))
+    return list(distinct.values())
+
+
+def point_twill(base: np.ndarray, leg: int) -> np.ndarray:
+    """A point (zigzag) twill: the twill ``base`` (n × n) runs one way for ``leg`` warps and back
+    for ``leg`` − 2, mirrored about each turn: (n, 2 leg − 2) wefts × warps (leg ≥ 3)."""
+    n = base.shape[1]
+    if leg < 3:
+        raise ValueError(f"a point twill's leg is at least 3 warps, got {leg}")
+    cols = list(range(leg)) + list(range(leg - 2, 0, -1))
+    return base[:, [c % n for c in cols]].copy()
+
+
+def herringbone(base: np.ndarray, leg: int) -> np.ndarray:
+    """A herringbone (broken twill): the twill ``base`` (n × n) for ``leg`` warps, then its
+    mirror image for ``leg`` warps, cut at each turn (the mirror moved by half the twill's
+    repeat, so that the floats oppose there): (n, 2 leg) wefts × warps (leg ≥ 2)."""
+    n = base.shape[1]
+    if leg < 2:
+        raise ValueError(f"a herringbone's leg is at least 2 warps, got {leg}")
+    right = base[:, [c % n for c in range(leg)]]
+    left = np.roll(base[:, [(-c) % n for c in range(leg)]], n // 2, axis=0)
+    return np.concatenate([right, left], axis=1)
+
+
+def broken_twills(shape: tuple[int, int]) -> list[tuple[str, int, int, int, str, np.ndarray]]:
+    """The herringbones and point twills of a (wefts, warps) repeat ``shape``, built on the
+    twills a/b of 3 to 8 yarns with legs of at least half the twill's repeat: legs of warps
+    (the repeat n × 2 leg for a herringbone, n × (2 leg − 2) for a point twill) and, transposed,
+    legs of wefts. Returns (kind, a, b, leg, ``"warps"`` or ``"wefts"``, pattern) each; both
+    faces (a/b and b/a)."""
+    found = []
+    for rows, cols, along in ((shape[0], shape[1], "warps"), (shape[1], shape[0], "wefts")):
+        if not 3 <= rows <= 8 or cols % 2 or cols < 4:
+            continue
+        for make, leg, kind in ((herringbone, cols // 2, "herringbone"), (point_twill, (cols + 2) // 2, "point twill")):
+            if leg < max(2 if make is herringbone else 3, rows // 2):
+                continue
+            for over in range(1, rows):
+                q = make(twill(over, rows - over), leg)
+                found.append((kind, over, rows - over, leg, along, q.T if along == "wefts" else q))
+    return found
+
+
+def named_weaves(shape: tuple[int, int]) -> list[np.ndarray]:
+    """Every named weave with a (wefts, warps) repeat of ``shape``, both faces, distinct up to
+    a cyclic shift: :func:`regular_weaves`, plus the broken twills (:func:`broken_twills`:
+    herringbones and point twills, by leg length) and the unequal baskets (hopsacks of
+    a × b blocks). The pattern decision's library (:mod:`weavecap.estimate.decide`); the fit's
+    named-weave starts keep to :func:`regular_weaves`."""
+    return [p for _, p in named_weave_families(shape)]
+
+
+def named_weave_families(shape: tuple[int, int]) -> list[tuple[str, np.ndarray]]:
+    """:func:`named_weaves` with the family each comes from: ``plain``, ``twill``, ``satin``,
+    ``basket``, ``rib`` or ``broken twill``."""
+    from .weave_name import minimal_repeat
+
+    n_e, n_a = shape
+    extra = [("broken twill", q) for *_, q in broken_twills(shape)]
+    if n_e % 2 == 0 and n_a % 2 == 0 and min(n_e, n_a) >= 4 and n_e != n_a:
+        extra.append(("basket", np.kron(np.array([[1, 0], [0, 1]], dtype=np.uint8),
+                                        np.ones((n_e // 2, n_a // 2), dtype=np.uint8))))
+    extra = [(f, p) for f, p in extra if interlaces(p) and minimal_repeat(p).shape == p.shape]
+    return _distinct(_regular(shape) + extra)
 
 
 def interlaces(pattern: np.ndarray) -> bool:

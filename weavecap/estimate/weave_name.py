@@ -9,8 +9,11 @@ A pattern (wefts, warps), 1 = weft over warp, is named after its minimum repeat:
   coprime with n), ``weft-faced`` or ``warp-faced``; ``satin n/s extended a/b``: a satin's
   derivative whose rows hold one run of ``a`` raised cells (``b`` lowered, both > 1), each row
   the last moved by ``s`` (the extended or reinforced satins of weaving handbooks);
-- ``basket k/k`` (k × k blocks of plain weave) and ``rib`` (plain weave with yarns doubled in
-  one direction);
+- ``basket a/b`` (a × b blocks of plain weave: a hopsack where a = b) and ``rib`` (plain
+  weave with yarns doubled in one direction);
+- ``herringbone a/b, legs of k warps`` (a broken twill: the twill a/b turned back every k
+  warps, cut at the turn) and ``point twill a/b, legs of k warps`` (turned back without the cut,
+  a zigzag), or ``… wefts`` when the legs are groups of wefts;
 - ``custom n×m`` otherwise.
 
 Every name is invariant to cyclic shifts of the repeat (the photo's repeat may start at any
@@ -19,6 +22,7 @@ yarn) and to repeating it.
 
 from __future__ import annotations
 
+from functools import lru_cache
 from math import gcd
 
 import numpy as np
@@ -48,10 +52,27 @@ def shift_agreement(a: np.ndarray, b: np.ndarray) -> tuple[float, tuple[int, int
     return best, best_shift
 
 
+def canonical(pattern: np.ndarray) -> tuple:
+    """A key equal for two patterns exactly when they tile the same fabric up to a cyclic
+    shift: the minimal repeat's shape and the smallest of its cyclic shifts' bytes."""
+    p = minimal_repeat(pattern)
+    shifts = cyclic_shifts(p).reshape(p.size, -1)
+    return p.shape, min(r.tobytes() for r in shifts)
+
+
+def cyclic_shifts(pattern: np.ndarray) -> np.ndarray:
+    """Every cyclic shift of ``pattern`` (n_e, n_a): (n_e * n_a, n_e, n_a), shift (i, j) at
+    i * n_a + j being ``np.roll(pattern, (i, j), axis=(0, 1))``."""
+    p = np.asarray(pattern)
+    n_e, n_a = p.shape
+    i = (np.arange(n_e)[None, None, :, None] - np.arange(n_e)[:, None, None, None]) % n_e
+    j = (np.arange(n_a)[None, None, None, :] - np.arange(n_a)[None, :, None, None]) % n_a
+    return np.ascontiguousarray(p[i, j].reshape(n_e * n_a, n_e, n_a))
+
+
 def equal_up_to_shift(a: np.ndarray, b: np.ndarray) -> bool:
     """Whether two patterns tile the same fabric, up to a cyclic shift."""
-    a, b = minimal_repeat(a), minimal_repeat(b)
-    return a.shape == b.shape and shift_agreement(a, b)[0] == 1.0
+    return canonical(a) == canonical(b)
 
 
 def _moving_run(p: np.ndarray) -> str | None:
@@ -99,25 +120,54 @@ def _blocks(p: np.ndarray) -> str | None:
     block = np.kron(plain, np.ones((ke, ka), dtype=np.uint8))
     if not equal_up_to_shift(p, block):
         return None
-    if ke == ka:
-        return f"basket {ke}/{ka}"
     if min(ke, ka) == 1:
         return f"rib {max(ke, ka)} ({'wefts' if ke > 1 else 'warps'} doubled)"
-    return None
+    return f"basket {ke}/{ka}"
+
+
+@lru_cache(maxsize=None)
+def _broken_names(shape: tuple[int, int]) -> dict:
+    """canonical key → name of every herringbone and point twill of a repeat ``shape``."""
+    from .sampling import broken_twills
+
+    names: dict = {}
+    for kind, over, under, leg, along, q in broken_twills(shape):
+        names.setdefault(canonical(q), f"{kind} {over}/{under}, legs of {leg} {along}")
+    return names
+
+
+def _broken_twill(p: np.ndarray) -> str | None:
+    """A herringbone or a point twill (:func:`weavecap.estimate.sampling.broken_twills`) at any
+    phase, legs of warps or of wefts."""
+    return _broken_names(p.shape).get(canonical(p))
 
 
 def weave_name(pattern: np.ndarray) -> str:
     """A name for people: ``plain``, ``twill 2/1 Z``, ``satin 5/2 weft-faced``, ``basket 2/2``,
-    ``rib 2 (wefts doubled)`` or ``custom 4×6`` (the minimum repeat's wefts × warps)."""
+    ``rib 2 (wefts doubled)``, ``herringbone 2/2, legs of 4 warps`` or ``custom 4×6`` (the
+    minimum repeat's wefts × warps)."""
     p = minimal_repeat(pattern)
     if p.shape == (2, 2) and p[0, 0] == p[1, 1] != p[0, 1] == p[1, 0]:
         return "plain"
     if p.shape == (1, 1) or min(p.shape) == 1:
         return f"custom {p.shape[0]}×{p.shape[1]} (yarns that never interlace)"
-    for namer in (_moving_run, _satin, _blocks):
+    for namer in (_moving_run, _satin):
         # try every cyclic shift of the rows: a twill or satin is recognised from any start
         for i in range(p.shape[0]):
             name = namer(np.roll(p, i, axis=0))
             if name:
                 return name
-    return f"custom {p.shape[0]}×{p.shape[1]}"
+    return _blocks(p) or _broken_twill(p) or f"custom {p.shape[0]}×{p.shape[1]}"
+
+
+#: the weave families a name belongs to (a broken twill is a twill, an extended satin a satin)
+FAMILIES = ("plain", "twill", "satin", "basket", "rib", "custom")
+
+
+def weave_family(name: str) -> str:
+    """The family of a :func:`weave_name`: one of :data:`FAMILIES` (``herringbone`` and
+    ``point twill`` are twills)."""
+    first = name.split()[0]
+    if first in ("herringbone", "point"):
+        return "twill"
+    return first if first in FAMILIES else "custom"

@@ -124,26 +124,34 @@ def best_named_weave(prepared, cells, start: wparams.Fabric, rig: LightRig, *, c
     MSE between the two (one render each). The pattern's phase does not matter: the
     registration moves the cells to it.
     """
-    from ..estimate.forward import RepeatRenderer
     from ..estimate.sampling import regular_weaves
     from ..estimate.weave_name import equal_up_to_shift
-    from ..model.render import white_level
 
     weaves = [p for p in regular_weaves(start.shape) if not equal_up_to_shift(p, start.pattern)]
     if not weaves:
         return None
-    rr = RepeatRenderer(start, cell_px=c, light=rig, white=white_level(prepared.rectification.image))
+    own, *scores = pattern_scores(prepared, cells, start, rig, [start.pattern] + weaves, c=c)
+    k = int(np.argmin(scores))
+    return weaves[k] if scores[k] < own * (1.0 + tolerance) else None
 
-    def score(pattern: np.ndarray) -> float:
+
+def pattern_scores(prepared, cells, start: wparams.Fabric, rig: LightRig, patterns: list[np.ndarray], *,
+                   c: int) -> list[float]:
+    """How well each of ``patterns`` explains the photo with ``start``'s other parameters, as
+    the fit would see it: the cells registered on its render, the photo's median repeat there,
+    and the MSE between the two (one render each, no fitting). The pattern's phase does not
+    matter: the registration moves the cells to it."""
+    from ..estimate.forward import RepeatRenderer
+    from ..model.render import white_level
+
+    rr = RepeatRenderer(start, cell_px=c, light=rig, white=white_level(prepared.rectification.image))
+    scores = []
+    for pattern in patterns:
         rr.set_pattern(pattern)
         model = rr.render()
         _, _, target = _registered_target(prepared, cells, model, c)
-        return float(np.mean(np.square(model - target)))
-
-    own = score(start.pattern)
-    scores = [score(p) for p in weaves]
-    k = int(np.argmin(scores))
-    return weaves[k] if scores[k] < own * (1.0 + tolerance) else None
+        scores.append(float(np.mean(np.square(model - target))))
+    return scores
 
 
 def photo_votes(prepared, cells, fabric: wparams.Fabric, rig: LightRig, *, c: int) -> np.ndarray:
