@@ -66,20 +66,21 @@ def test_views_agree_only_when_every_view_gave_the_same_weave():
 
 
 def _row(set_, photo, split, expect, status, weave=None, pattern=None, family=None, fabric=None, pitch=None,
-         density=None, sha=None, reason=None):
+         density=None, sha=None, reason=None, photo_scale=None):
     r = real.RealPhoto(path=Path(photo), set=set_, family=family, density=density, fabric=fabric, split=split,
                        expect=expect, sha256=sha or photo)
     raw = {"status": status, "code": None if status == "ok" else "no_grid", "reason": reason, "weave": weave,
            "pattern": None if pattern is None else np.asarray(pattern).tolist(), "pitch_px": pitch, "yarns": None,
-           "seconds": 10.0}
+           "photo_scale": photo_scale, "seconds": 10.0}
     return real.score(r, raw)
 
 
 def test_summary_counts_the_done_when_figures_per_split():
     rows = [
-        _row("fabricnet", "a.jpg", "dev", "fit", "ok", "plain", PLAIN, "plain", "fabricnet:1", (10.0, 20.0), (30, 15)),
+        _row("fabricnet", "a.jpg", "dev", "fit", "ok", "plain", PLAIN, "plain", "fabricnet:1", (10.0, 20.0), (30, 15),
+             photo_scale={"colour_p90": 8.0, "sharpness": 0.9, "structure": 0.7}),
         _row("fabricnet", "b.jpg", "dev", "fit", "ok", "twill 2/2 Z", TWILL_22_Z, "plain", "fabricnet:1",
-             (10.0, 10.0), (30, 15)),
+             (10.0, 10.0), (30, 15), photo_scale={"colour_p90": 14.0, "sharpness": 0.45, "structure": 0.5}),
         _row("fabricnet", "c.jpg", "held-out", "fit", "rejected", family="satin", fabric="fabricnet:2",
              density=(25, 50), reason="no grid"),
         _row("negative", "d.jpg", "dev", "reject", "rejected", reason="no regular yarn grid"),
@@ -90,6 +91,8 @@ def test_summary_counts_the_done_when_figures_per_split():
     assert dev["family"] == (2, 3)  # the twill labelled plain is wrong
     assert dev["density"] == (1, 2)  # ratio 2 against 2 (right), 1 against 2 (50 % off)
     assert dev["views"] == (0, 1)  # fabric 1: plain and twill
+    assert dev["pixel_p90"] == (1, 2) and dev["pixel_sharpness"] == (1, 2) and dev["pixel_structure"] == (1, 2)
+    assert dev["not_washed"] == (1, 2)  # the twill's render at sharpness 0.45 is washed out
     assert held["fitted"] == (0, 1) and held["density"] == (0, 1) and held["views"] == (0, 1)
     assert every["photos"] == 4  # the copy of a.jpg counts once
     table = real.summary_table(rows)

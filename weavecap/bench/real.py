@@ -249,7 +249,8 @@ def _fit_row(photo: RealPhoto, out_dir: Path, quality: str) -> dict:
             "pitch_px": rep["grid"]["pitch_px"] if cap.status == "ok" else None,
             "yarns": rep["grid"]["yarns"] if cap.status == "ok" else None,
             "psnr_db": fit.get("psnr_db"), "sharpness": fid.get("sharpness"), "delta_e": fid.get("delta_e"),
-            "structure": fid.get("structure"), "seconds": rep["timings_s"]["total"]}
+            "structure": fid.get("structure"), "photo_scale": fid.get("photo_scale"),
+            "seconds": rep["timings_s"]["total"]}
 
 
 def _prepare_row(photo: RealPhoto, out_dir: Path) -> dict:
@@ -345,7 +346,9 @@ def summary(rows: list[dict], split: str | None = None) -> dict:
     :data:`FITTED_TARGET_SETS` fitted), ``rejected`` (negatives and sub-Nyquist crops
     rejected), ``family`` (family right of the labelled, fitted photos), ``density`` (fabricnet
     photos with the ratio within 15 %, of all of them), ``views`` (fabrics whose views agree),
-    and the median seconds."""
+    the photo-scale figures of the fitted photos (:func:`weavecap.fit.compare.at_photo_scale`):
+    ``pixel_p90`` (pixel colour difference p90 ≤ 12), ``pixel_sharpness`` (within 0.8–1.25),
+    ``pixel_structure`` (≥ 0.6), ``not_washed`` (sharpness ≥ 0.5), and the median seconds."""
     if split is None:
         seen, rs = set(), []
         for r in rows:  # fabricnet/ comes first: a copy in images/ counts there
@@ -357,6 +360,7 @@ def summary(rows: list[dict], split: str | None = None) -> dict:
     fit_target = [r for r in rs if r["expect"] == "fit" and r["set"] in FITTED_TARGET_SETS]
     agree = fabric_agreement(rs)
     secs = [r["seconds"] for r in rs if r["seconds"] is not None]
+    scale = [r["photo_scale"] for r in rs if r["status"] == "ok" and r.get("photo_scale")]
     return {
         "photos": len(rs),
         "fitted": _share([r["status"] == "ok" for r in fit_target]),
@@ -365,6 +369,10 @@ def summary(rows: list[dict], split: str | None = None) -> dict:
         "density": _share([r["density_error"] is not None and abs(r["density_error"]) <= 0.15
                            for r in rs if r["set"] == "fabricnet"]),
         "views": _share(list(agree.values())),
+        "pixel_p90": _share([s["colour_p90"] <= 12 for s in scale]),
+        "pixel_sharpness": _share([0.8 <= s["sharpness"] <= 1.25 for s in scale]),
+        "pixel_structure": _share([s["structure"] >= 0.6 for s in scale]),
+        "not_washed": _share([s["sharpness"] >= 0.5 for s in scale]),
         "median_s": statistics.median(secs) if secs else float("nan"),
     }
 
@@ -383,6 +391,11 @@ def summary_table(rows: list[dict]) -> str:
     for name, s in parts:
         out.append(f"| {name} | {s['photos']} | {_frac(s['fitted'])} | {_frac(s['rejected'])} | {_frac(s['family'])} | "
                    f"{_frac(s['density'])} | {_frac(s['views'])} | {s['median_s']:.1f} |")
+    out += ["", "| split | pixel colour p90 ≤ 12 (≥ 85 %) | sharpness 0.8–1.25 (≥ 85 %) | structure ≥ 0.6 (≥ 85 %) | "
+            "sharpness ≥ 0.5 (all) |", "|" + "---|" * 5]
+    for name, s in parts:
+        out.append(f"| {name} | {_frac(s['pixel_p90'])} | {_frac(s['pixel_sharpness'])} | "
+                   f"{_frac(s['pixel_structure'])} | {_frac(s['not_washed'])} |")
     return "\n".join(out)
 
 
