@@ -11,7 +11,7 @@ import pytest
 from weavecap import params
 from weavecap.estimate.cells import CellGrid
 from weavecap.estimate.thread_colours import colour_order, thread_colours
-from weavecap.fit.compare import PhotoView
+from weavecap.fit.photo_view import PhotoView
 from weavecap.fit.threads import capture_threads, flattening_factor, flattening_references, thread_delta_e
 from weavecap.model.render import as_photographed, render_numpy
 from weavecap.model.scene import View, build_scene, light_rig

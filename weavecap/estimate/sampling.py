@@ -15,6 +15,7 @@ from math import gcd
 import numpy as np
 
 from ..params import FIT_RANGES, Fabric, from_dict
+from .repeats import canonical, minimal_repeat
 
 FAMILIES = ("plain", "twill", "satin", "basket", "rib", "random")
 
@@ -62,8 +63,6 @@ def _regular(shape: tuple[int, int]) -> list[tuple[str, np.ndarray]]:
 def _distinct(tagged: list[tuple[str, np.ndarray]]) -> list[tuple[str, np.ndarray]]:
     """``tagged`` (family, pattern) and every pattern's other face, each pattern once up to a
     cyclic shift (the first family it came with)."""
-    from .weave_name import canonical
-
     distinct: dict[tuple, tuple[str, np.ndarray]] = {}
     for family, p in tagged + [(f, 1 - p) for f, p in tagged]:
         distinct.setdefault(canonical(p), (family, p.astype(np.uint8)))
@@ -123,8 +122,6 @@ def named_weaves(shape: tuple[int, int]) -> list[np.ndarray]:
 def named_weave_families(shape: tuple[int, int]) -> list[tuple[str, np.ndarray]]:
     """:func:`named_weaves` with the family each comes from: ``plain``, ``twill``, ``satin``,
     ``basket``, ``rib`` or ``broken twill``."""
-    from .weave_name import minimal_repeat
-
     n_e, n_a = shape
     extra = [("broken twill", q) for *_, q in broken_twills(shape)]
     if n_e % 2 == 0 and n_a % 2 == 0 and min(n_e, n_a) >= 4 and n_e != n_a:

@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..params import Fabric, PaletteEntry, ThreadColours, Threads
-from .compare import PhotoView, shown, view_scene
+from .photo_view import PhotoView, shown, view_scene
 
 #: rounds of the per-entry scaling (the first lands within a few ΔE, the rest take up the
 #: clipping and the blur across yarn edges)
@@ -81,7 +81,7 @@ def capture_threads(view: PhotoView, fabric: Fabric, rig, *, blur_px: float, spp
 
     Parameters
     ----------
-    view : the photo at its own scale over whole cells (:func:`weavecap.fit.compare.photo_view`)
+    view : the photo at its own scale over whole cells (:func:`weavecap.fit.photo_view.photo_view`)
     fabric : the fitted fabric (family colours)
     rig : the fitted light rig (its gain)
     blur_px : the photo's blur in view pixels
@@ -172,7 +172,7 @@ def flattened(prepared, cells, start: Fabric, *, spp: int) -> tuple[object, dict
     import dataclasses
 
     from ..estimate.thread_colours import colour_order, thread_colours
-    from .compare import view_cell_px
+    from .photo_view import view_cell_px
     from .target import cells_canvas, shifted
 
     from ..estimate.forward import BLUR_CELLS, RepeatRenderer

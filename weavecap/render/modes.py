@@ -10,14 +10,10 @@ here. Two are built in:
   neural papers compare with: :mod:`weavecap.render.direct`, every light at every sample,
   stratified camera samples.
 
-Other renderers add theirs without editing this module: a package listed in PLUGINS (the
-woven renderer's ``weavecap.render.woven``, the fold renderer's ``weavecap.render.fold``) is
-imported when a mode or fold term is first asked for, if it exists, and calls
-:func:`register_mode` / :func:`register_fold_term` at import::
-
-    from weavecap.render.modes import Mode, register_mode
-    register_mode(Mode("neural", "woven neural BSDF (Chen et al. 2024)", bsdf=my_bsdf,
-                       integrator=my_integrator, fold=True))
+The neural renderer's ``neural`` mode (:data:`weavecap.render.woven.MODE`) and the fold
+renderer's term (:data:`weavecap.render.fold.TERM`) join the table when a mode or fold term is
+first asked for; benches and tests add theirs with :func:`register_mode` /
+:func:`register_fold_term`. The entries' types are in :mod:`weavecap.render.mode`.
 
 A :class:`FoldTerm` adds a fold's local inter-reflection to a render (``--fold auto|on|off``):
 ``auto`` applies the registered term where the mesh has folds and the mode asks for it
@@ -27,11 +23,8 @@ applies it everywhere it is available (an error if none is registered), ``off`` 
 
 from __future__ import annotations
 
-import importlib
-from dataclasses import dataclass
-from typing import Callable
-
 from ..errors import InputError
+from .mode import FoldTerm, Mode, direct_integrator, with_lighting
 
 #: ``weavecap render``'s mode when none is given: the surface model's direct light, adaptive
 #: spp — right under every light, where the neural renderer is not yet (docs/render.md, *Modes*)
@@ -43,54 +36,7 @@ MODE_HELP = ("direct: direct lighting (one bounce) of the surface model, every l
              "its colours a few percent darker: docs/woven.md).")
 SPP_HELP = ("Samples per pixel  [default: direct until the noise is below 1 L*, at most 512; neural 4 (a 2x2 grid of "
             "footprints); reference 64]")
-#: optional packages that register modes and fold terms when imported (absent ones are skipped)
-PLUGINS = ("weavecap.render.woven", "weavecap.render.fold")
 FOLD_CHOICES = ("auto", "on", "off")
-
-
-@dataclass(frozen=True)
-class Mode:
-    """One way to render.
-
-    Attributes
-    ----------
-    name, description : for ``--mode`` and ``--help``
-    bsdf : ``(fabric, maps, placement, noise, linear) -> mi.BSDF``: the fabric on the mesh
-        (``linear``: whether a texel is big enough in the image to interpolate maps)
-    integrator : ``(lighting, options) -> dict``: the Mitsuba integrator (a ``load_dict`` dict)
-    fold : whether ``--fold auto`` adds a fold term to this mode's renders
-    sampler : the camera's sampler (a ``load_dict`` dict without ``sample_count``), default
-        Mitsuba's ``independent``
-    spp : samples per pixel when ``--spp`` is not given (None: until the noise is below what
-        shows, :func:`weavecap.render.run.adaptive_passes`)
-    """
-
-    name: str
-    description: str
-    bsdf: Callable
-    integrator: Callable
-    fold: bool = False
-    sampler: dict | None = None
-    spp: int | None = 64
-
-
-@dataclass(frozen=True)
-class FoldTerm:
-    """Local inter-reflection in folds, added to a render.
-
-    Attributes
-    ----------
-    name : for messages and ``--json``
-    has_folds : ``(mesh) -> bool``: whether ``auto`` should apply it to this mesh
-    apply : ``(context) -> image`` or ``(image, detail)``: the image with the fold term added,
-        given the :class:`weavecap.render.run.RenderContext` of the render (scene, mesh, fabric,
-        maps, camera, lighting, options and the image so far, linear (H, W, 3)); ``detail``, a
-        dict of what it modelled, goes to the render's info as ``fold_detail``
-    """
-
-    name: str
-    has_folds: Callable
-    apply: Callable
 
 
 MODES: dict[str, Mode] = {}
@@ -108,22 +54,23 @@ def register_fold_term(term: FoldTerm) -> None:
     FOLD_TERMS.append(term)
 
 
-def _load_plugins() -> None:
+def _add_renderers() -> None:
+    """Add the neural mode and the fold term (imported here, on first use: they load their
+    networks' code)."""
     global _loaded
     if _loaded:
         return
     _loaded = True
-    for name in PLUGINS:
-        try:
-            importlib.import_module(name)
-        except ModuleNotFoundError as exc:
-            if exc.name != name:  # the package exists but something it needs does not
-                raise
+    from .fold import TERM
+    from .woven import MODE
+
+    register_mode(MODE)
+    register_fold_term(TERM)
 
 
 def mode(name: str) -> Mode:
     """The mode ``name``; InputError naming the modes there are."""
-    _load_plugins()
+    _add_renderers()
     if name not in MODES:
         raise InputError(f"--mode {name!r} is unknown; available: {', '.join(sorted(MODES))}")
     return MODES[name]
@@ -131,7 +78,7 @@ def mode(name: str) -> Mode:
 
 def mode_names() -> list[str]:
     """Every registered mode, built-ins first."""
-    _load_plugins()
+    _add_renderers()
     built_in = [n for n in ("reference", "direct") if n in MODES]
     return built_in + sorted(n for n in MODES if n not in built_in)
 
@@ -140,7 +87,7 @@ def fold_term(choice: str, chosen: Mode, mesh) -> FoldTerm | None:
     """The fold term to apply under ``--fold choice`` for this mode and mesh, or None."""
     if choice not in FOLD_CHOICES:
         raise InputError(f"--fold {choice!r}: use one of {', '.join(FOLD_CHOICES)}")
-    _load_plugins()
+    _add_renderers()
     if choice == "off":
         return None
     term = FOLD_TERMS[-1] if FOLD_TERMS else None
@@ -158,16 +105,6 @@ def _surface_bsdf(fabric, maps, placement, noise, linear):
     return SurfaceBSDF(fabric, maps, placement, noise, linear=linear)
 
 
-def with_lighting(props: dict, lighting) -> dict:
-    """An integrator's ``load_dict`` properties with the capture rigs' ``ambient`` radiance and
-    ``background`` (:class:`weavecap.render.scene.Lighting`), where the lights have them."""
-    if lighting.ambient:
-        props["ambient"] = float(lighting.ambient)
-    if lighting.background is not None:
-        props["background"] = float(lighting.background)
-    return props
-
-
 def _path(max_depth: int | None):
     def integrator(lighting, options) -> dict:
         from . import integrator as _integrator  # noqa: F401  (registers "weavecap_path")
@@ -179,12 +116,6 @@ def _path(max_depth: int | None):
 
 register_mode(Mode("reference", "path tracing of the surface model (max depth, Russian roulette)",
                    bsdf=_surface_bsdf, integrator=_path(None)))
-def direct_integrator(lighting, options) -> dict:
-    """The one-bounce integrator of :mod:`weavecap.render.direct` (``direct`` and ``neural``)."""
-    from . import direct as _direct_integrator  # noqa: F401  (registers "fabric_direct")
-
-    return with_lighting({"type": "fabric_direct"}, lighting)
-
 
 #: stratified camera samples (a jittered grid of sub-pixels a pass): the weave under a pixel
 #: is integrated faster than by independent samples
@@ -192,3 +123,6 @@ STRATIFIED = {"type": "multijitter"}
 
 register_mode(Mode("direct", "direct lighting only (one bounce) of the surface model, every light at every sample",
                    bsdf=_surface_bsdf, integrator=direct_integrator, fold=True, sampler=STRATIFIED, spp=None))
+
+__all__ = ["Mode", "FoldTerm", "MODES", "FOLD_TERMS", "register_mode", "register_fold_term", "mode", "mode_names",
+           "fold_term", "with_lighting", "direct_integrator", "DEFAULT_MODE", "STRATIFIED"]

@@ -8,12 +8,12 @@
 - :mod:`.visibility` — neighbourhood visibility V̄ (§2): sampled, or ASG lobes;
 - :mod:`.blidf` — the BLIDF network S_θ (factorised intensity × spherical harmonics);
 - :mod:`weavecap.training.fold` — its training data (LocalPT on the procedural fold suite) and training;
-- :mod:`.term` — the fold term of ``weavecap render`` (registered here, at import).
+- :mod:`.term` — the fold term of ``weavecap render``, :data:`TERM` here.
 
-``weavecap.render.modes`` imports this package when a render asks for a fold term.
+``weavecap.render.modes`` takes :data:`TERM` into its table when a render asks for a fold term.
 """
 
-from ..modes import FoldTerm, register_fold_term
+from ..mode import FoldTerm
 
 
 def _has_folds(mesh) -> bool:
@@ -28,4 +28,5 @@ def _apply(context):
     return apply(context)
 
 
-register_fold_term(FoldTerm("blidf", _has_folds, _apply))
+#: the fold term of ``weavecap render`` (the BLIDF's local inter-reflection)
+TERM = FoldTerm("blidf", _has_folds, _apply)

@@ -16,11 +16,13 @@ split into colour-free channels the colours multiply (so colours change without 
   :mod:`weavecap.render.direct` (its methods traced inline; the camera at pixel centres);
 - :mod:`weavecap.bench.woven` is its section of ``weavecap bench --render``.
 
-Importing this package registers the ``neural`` mode of ``weavecap render``
-(:mod:`weavecap.render.modes`); it loads no Mitsuba, Dr.Jit or PyTorch until a render asks.
+:data:`MODE` is the ``neural`` mode of ``weavecap render`` (:mod:`weavecap.render.modes`'s
+table takes it); importing this package loads no Mitsuba, Dr.Jit or PyTorch until a render asks.
 """
 
 from __future__ import annotations
+
+from ..mode import Mode, direct_integrator
 
 #: the neural renderer's camera samples: pixel centres (1 spp), or the centres of a grid of
 #: sub-pixels (spp = n × m, each sample's footprint its sub-pixel's), so the footprints tile
@@ -34,11 +36,6 @@ def _neural_bsdf(fabric, maps, placement, noise, linear):
     return NeuralSurfaceBSDF(fabric, maps, placement, noise)
 
 
-def _register() -> None:
-    from ..modes import Mode, direct_integrator, register_mode
-
-    register_mode(Mode("neural", "woven neural BSDF at the pixel's footprint (Chen et al. 2024), direct light",
-                       bsdf=_neural_bsdf, integrator=direct_integrator, fold=True, sampler=PIXEL_CENTRES, spp=4))
-
-
-_register()
+#: the ``neural`` mode of ``weavecap render``
+MODE = Mode("neural", "woven neural BSDF at the pixel's footprint (Chen et al. 2024), direct light",
+            bsdf=_neural_bsdf, integrator=direct_integrator, fold=True, sampler=PIXEL_CENTRES, spp=4)
