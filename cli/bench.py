@@ -3,7 +3,6 @@ and docs/render.md)."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import click
@@ -84,65 +83,9 @@ def bench(quick, do_model, do_fit, do_render, sets, stage, realdata, presets, li
       weavecap bench --fit --set real --preset normal -o bench-out/
       weavecap bench -o bench-out/ > performance.md
     """
-    from weavecap.io import atomic_write_text
+    from weavecap.bench.sections import BenchRequest, chosen_sections, run
 
-    chosen = {"model": do_model, "fit": do_fit, "render": do_render}
-    named = [k for k, v in chosen.items() if v]
-    run = set(named) if named else {k for k, v in chosen.items() if v is None}
-    say = Reporter("bench").say
-    if "model" in run:
-        from weavecap.bench.model import CASES, run_cold, table
-
-        results = []
-        for case in CASES:
-            say(f"measuring: {case.name} ...")
-            results.append(run_cold(case))
-        click.echo(table(results))
-        click.echo("")
-    if "fit" in run and sets == "real":
-        from weavecap.bench import real
-
-        folder = real.find_realdata(realdata)
-        if folder is None and realdata is not None:
-            from weavecap.errors import InputError
-
-            raise InputError(f"{realdata}: holds no fabricnet/labels.csv; give --realdata the realdata folder of "
-                             "../shared")
-        if folder is None:
-            say("the real photos were not found (give --realdata, or set WEAVECAP_SHARED): the real-photo bench "
-                "is skipped")
-        else:
-            rows = real.run(folder, out / "real", stage=stage, quality=(presets or ("normal",))[0], progress=say)
-            real.write(rows, out / "real")
-            click.echo(f"real photos ({stage}):\n{real.summary_table(rows)}\n")
-            click.echo(f"(per photo: {out / 'real' / 'real.md'}; {out / 'real' / 'real.jsonl'}; "
-                       f"outputs: {out / 'real' / 'fits'})", err=True)
-    elif "fit" in run:
-        from weavecap.bench import fit as fit_bench
-
-        presets = presets or (("draft", "normal") if quick else ("draft", "normal", "high"))
-        photo_sets = fit_bench.SETS if sets == "both" else (sets,)
-        rows = fit_bench.run(presets, quick=quick, folder=out, sets=photo_sets, light=light, progress=say)
-        summary = fit_bench.summary(rows)
-        exposure = []
-        if "independent" in photo_sets and not quick:
-            for preset in presets:
-                for mode in ("rig", "photo"):
-                    exposure += fit_bench.exposure_invariance(preset, out / "exposure", exposure=mode, progress=say)
-        atomic_write_text(out / "results.json", json.dumps({"photos": rows, "summary": summary,
-                                                            "exposure": exposure}, indent=1) + "\n")
-        for name, make in (("own", fit_bench.table), ("independent", fit_bench.independent_table)):
-            if name in photo_sets:
-                click.echo(f"fit bench, {name} photos:\n{make(summary)}\n")
-        if exposure:
-            click.echo(f"exposure invariance (independent photos):\n{fit_bench.exposure_table(exposure)}\n")
-        if "own" in photo_sets:
-            fit_bench.plot(summary, out / "speed_vs_error.png")
-        say(f"(plot: {out / 'speed_vs_error.png'}; details: {out / 'results.json'}; fits: {out / 'fits'})")
-    if "render" in run:
-        from weavecap.bench import render as render_bench
-
-        results = render_bench.run(quick=quick, progress=say)
-        atomic_write_text(out / "render.json", json.dumps(results, indent=1) + "\n")
-        click.echo(render_bench.tables(results))
-        say(f"(details: {out / 'render.json'})")
+    sections = chosen_sections({"model": do_model, "fit": do_fit, "render": do_render})
+    for table in run(BenchRequest(sections, out, quick=quick, sets=sets, stage=stage, realdata=realdata,
+                                  presets=presets, light=light), Reporter("bench").say):
+        click.echo(table)

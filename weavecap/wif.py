@@ -388,11 +388,11 @@ def _period(x: np.ndarray, axis: int) -> int:
     """The smallest period of a drawdown along ``axis``: the least ``k >= 1`` with
     ``x[k:] == x[:-k]`` (its length when none is shorter).
 
-    The lines along ``axis`` are numbered by content (packed to bytes and hashed), and the
+    The lines along ``axis`` are numbered by content (their bytes hashed), and the
     sequence's smallest period is its length less its longest proper border (Knuth–Morris–Pratt's
     failure function): time linear in the drawdown's cells. Trying every shift cost the cube
     of the thread count (4000 threads: 93 s)."""
-    lines = np.packbits(np.moveaxis(x, axis, 0).reshape(x.shape[axis], -1).astype(bool), axis=1)
+    lines = np.ascontiguousarray(np.moveaxis(np.asarray(x), axis, 0).reshape(x.shape[axis], -1))
     numbers: dict[bytes, int] = {}
     ids = [numbers.setdefault(line.tobytes(), len(numbers)) for line in lines]
     n = len(ids)
@@ -478,10 +478,11 @@ def colour_period(indices: list[int]) -> int:
     drafted at least twice (a draft cut mid-repeat), else their number."""
     seq = np.asarray(indices)
     n = seq.size
-    for k in range(1, n + 1):
+    for k in range(1, n):
         if n % k == 0 and np.array_equal(seq, np.roll(seq, k)):
-            return k if k < n else _period(seq[None, :], axis=1)
-    return n
+            return k
+    held = _period(seq[None, :], axis=1)
+    return held if 2 * held <= n else n
 
 
 def _linear_colour(rgb, colour_range) -> tuple[float, float, float]:

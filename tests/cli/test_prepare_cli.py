@@ -69,7 +69,7 @@ def test_a_given_pattern_sets_the_repeat_and_one_the_photo_cannot_hold_exits_2(w
 
 def test_json_prints_prepare_json_or_the_rejection(weave_png, tmp_path):
     """--json, as for every command: the record written (prepare.json) on standard output; a
-    rejected photo's reason and checks, exit 3, nothing written."""
+    rejected photo's reason and checks, exit 3, the same record written beside diagnosis.png."""
     res = _run(weave_png, "-o", tmp_path / "out", "--json", "-q")
     assert res.exit_code == 0 and res.stderr == ""
     assert json.loads(res.stdout) == json.loads((tmp_path / "out" / "prepare.json").read_text())
@@ -78,7 +78,9 @@ def test_json_prints_prepare_json_or_the_rejection(weave_png, tmp_path):
     res = _run(noise, "-o", tmp_path / "rejected", "--json")
     doc = json.loads(res.stdout)
     assert res.exit_code == 3 and doc["status"] == "rejected" and doc["reason"] in res.stderr and doc["checks"]
-    assert doc["input"]["path"] == str(noise) and not (tmp_path / "rejected").exists()
+    assert doc["input"]["path"] == str(noise)
+    assert json.loads((tmp_path / "rejected" / "prepare.json").read_text()) == doc
+    assert sorted(p.name for p in (tmp_path / "rejected").iterdir()) == ["diagnosis.png", "prepare.json"]
 
 
 def test_quiet_prints_nothing(weave_png, tmp_path):

@@ -192,7 +192,7 @@ def test_the_pixel_figure_scores_a_colour_swapped_fit_badly_where_the_family_mea
     from weavecap.model.render import render_numpy
     from weavecap.model.scene import View, build_scene
 
-    base = params.load(Path(__file__).resolve().parents[1] / "fixtures" / "params" / "twill_2_1.json")
+    base = params.load(Path(__file__).resolve().parents[2] / "fixtures" / "params" / "twill_2_1.json")
     red, blue = (0.55, 0.06, 0.05), (0.06, 0.08, 0.3)
 
     def striped(first, second):

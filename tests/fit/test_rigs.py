@@ -78,7 +78,7 @@ def test_a_rig_search_keeps_no_sharp_capture_that_explains_the_photo_far_worse()
 
 
 def test_the_runner_prepares_a_photo_once_whatever_the_rig_search(monkeypatch):
-    """``--light best`` on a photo: loaded, prepared and divided into cells once; the three
+    """``--light best`` on a photo: loaded, prepared, divided into cells and its pattern decided once; the three
     captures (auto under both, front, lamp) each pre-estimate, plan, fit and finish from that
     one preparation; the report gets the kept capture, the search's note and each capture's
     seconds. A photo rejected at preparation is returned at once, its checks in the report."""
@@ -96,10 +96,12 @@ def test_the_runner_prepares_a_photo_once_whatever_the_rig_search(monkeypatch):
     stage("load", lambda path: SimpleNamespace(input={}))
     stage("prepare", lambda loaded, options: prepared)
     stage("cells", lambda prep: SimpleNamespace(shape=(2, 2)))
-    stage("pre_estimate", lambda prep, grid, options, light: SimpleNamespace(light=light, exposure=None))
-    stage("plan", lambda start, grid, options: "plan")
+    decided = SimpleNamespace(prepared=prepared, grid=SimpleNamespace(shape=(2, 2)))
+    stage("decide", lambda loaded, prep, grid, options: decided)
+    stage("pre_estimate", lambda dec, options, light: SimpleNamespace(light=light, exposure=None))
+    stage("plan", lambda start, dec, options: "plan")
 
-    def fitted(start, grid, planned, options):
+    def fitted(start, dec, planned, options):
         assert planned == "plan"
         loss = figures[start.light][0]
         return SimpleNamespace(rig=SimpleNamespace(name="both" if start.light == "auto" else start.light),
@@ -108,19 +110,20 @@ def test_the_runner_prepares_a_photo_once_whatever_the_rig_search(monkeypatch):
     def finished(start, planned, fit, options):
         fidelity = {"sharpness": figures[start.light][1], "delta_e": {"warp": 1.0, "weft": 1.0}}
         return SimpleNamespace(fabric=start.light, rendered=np.zeros((4, 4, 3)),
-                               fidelity=SimpleNamespace(to_json=lambda: fidelity, caption=lambda: "caption"))
+                               fidelity=SimpleNamespace(to_json=lambda: fidelity, caption=lambda: "caption"),
+                               at_scale=SimpleNamespace(compare=lambda *a, **k: np.zeros((4, 8, 3))))
 
     stage("fit", fitted)
     stage("finish", finished)
     made = {}
     monkeypatch.setattr(pipeline.reports, "finished", lambda path, options, **parts: made.update(parts) or {})
     cap = pipeline.capture("photo.jpg", pipeline.CaptureOptions(light="best"))
-    assert calls[:3] == ["load", "prepare", "cells"] and calls.count("prepare") == 1
+    assert calls[:4] == ["load", "prepare", "cells", "decide"] and calls.count("prepare") == calls.count("decide") == 1
     assert [c[1] for c in calls if isinstance(c, tuple)] == ["auto", "front", "lamp"]
     assert calls.count("fit") == calls.count("finish") == 3
-    assert cap.fabric == "front" and made["prepared"] is prepared and "front (front) kept" in made["searched"].note
+    assert cap.fabric == "front" and made["decided"] is decided and "front (front) kept" in made["searched"].note
     assert set(made["timings"]["captures"]) == {"auto", "front", "lamp"}
-    assert {"load", "prepare", "cells", "pre_estimate", "plan", "fit", "finish", "total"} <= set(made["timings"])
+    assert {"load", "prepare", "cells", "decide", "pre_estimate", "plan", "fit", "finish", "total"} <= set(made["timings"])
 
     calls.clear()
     stage("prepare", lambda loaded, options: stages.Rejection("no weave", "not_woven", checks={"period": False}))

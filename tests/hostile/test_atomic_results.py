@@ -68,7 +68,7 @@ def test_force_onto_a_folder_whose_new_photo_is_rejected_leaves_no_old_fabric(sa
     (out / "notes.txt").write_text("the user's own file")  # not a weavecap output: kept
     result = weavecap("fit", noise_photo(sandbox / "in" / "noise.png"), "-o", out, "--force", "-q")
     assert result.exit_code == 3, result.output
-    assert files_under(out) == {"report.json", "notes.txt"}
+    assert files_under(out) == {"report.json", "diagnosis.png", "notes.txt"}  # the rejected photo's own set
     assert json.loads((out / "report.json").read_text())["status"] == "rejected"
 
 
@@ -96,7 +96,7 @@ def test_an_interrupted_write_resumes_without_force(sandbox):
     assert (out / "params.json").exists() and not (out / "report.json").exists()
     result = weavecap("fit", photo, "-o", out, "-q")
     assert result.exit_code == 3, result.output
-    assert files_under(out) == {"report.json"}
+    assert files_under(out) == {"report.json", "diagnosis.png"}
     record = json.loads((out / "report.json").read_text())
     assert record["status"] == "rejected"
     assert record["input"]["sha256"] == hashlib.sha256(photo.read_bytes()).hexdigest()

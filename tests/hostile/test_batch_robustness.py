@@ -32,7 +32,7 @@ def test_a_missing_file_and_a_folder_among_the_inputs_do_not_stop_the_batch(sand
     assert [(line["photo"], line["status"], line["exit"]) for line in lines] == [
         (str(missing), "invalid", 2), (str(folder), "invalid", 2), (str(photo), "rejected", 3)]
     assert "no such photo" in lines[0]["reason"] and "is a folder" in lines[1]["reason"]
-    assert files_under(out) == {"summary.jsonl", "noise/report.json"}  # nothing for the bad paths
+    assert files_under(out) == {"summary.jsonl", "noise/report.json", "noise/diagnosis.png"}  # nothing for the bad paths
     again = weavecap("fit", missing, folder, photo, "-o", out, "-q")  # resumes; the bad ones tried again
     assert again.exit_code == 3 and len(summary(out)) == 3
 

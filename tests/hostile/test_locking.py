@@ -60,7 +60,7 @@ def test_the_holder_is_named_and_the_lock_dies_with_its_process(sandbox):
     assert (out / LOCK).exists()  # left by the killed run, unlocked
     result = weavecap("fit", noise_photo(sandbox / "in" / "a.png"), "-o", out, "-q")
     assert result.exit_code == 3, result.output
-    assert files_under(out) == {"report.json"}  # the lock file goes when its run ends
+    assert files_under(out) == {"report.json", "diagnosis.png"}  # the lock file goes when its run ends
 
 
 def test_a_folder_the_lock_made_goes_again_when_nothing_was_written(sandbox):

@@ -27,8 +27,8 @@ def test_photos_named_dot_dot_write_inside_o_even_with_force(sandbox):
         result = weavecap("fit", *photos, "-o", sandbox / "out" / "o1", "-q", *extra)
         assert result.exit_code == 3, result.output  # all three rejected: noise
     assert (sandbox / "report.json").read_text() == "precious"
-    assert files_under(sandbox / "out") == {"o1/summary.jsonl", "o1/photo/report.json", "o1/photo-2/report.json",
-                                            "o1/noise/report.json"}
+    assert files_under(sandbox / "out") == {"o1/summary.jsonl"} | {f"o1/{name}/{file}" for name in ("photo", "photo-2", "noise")
+                                                                   for file in ("report.json", "diagnosis.png")}
     lines = [json.loads(line) for line in (sandbox / "out" / "o1" / "summary.jsonl").read_text().splitlines()]
     assert [Path(line["folder"]).name for line in lines] == ["photo", "photo-2", "noise"]
 

@@ -9,6 +9,7 @@ imports nothing from here.
   (the woven neural renderer), :mod:`.fold` (the fold term against LocalPT and path tracing)
   and :mod:`.agreement` (garments and lights never trained on: neural against direct, the fold
   term against path tracing).
+- :mod:`.sections` — `weavecap bench`'s sections in order, their tables;
 - :mod:`.real` — the real-photo development bench (``--fit --set real``): photos of real fabrics
   scored against their labels, DEV and HELD-OUT apart.
 """
