@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""A batch on a local Dask cluster against the same batch with ``--jobs`` (issue 16).
+"""A batch on a local Dask cluster against the same batch with ``--jobs``.
 
     .venv/bin/python scripts/bench_batch.py                  # 24 photos, 2 workers, draft
     .venv/bin/python scripts/bench_batch.py --photos 8 --workers 2 --size 96

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Accuracy and speed of ``weavecap.prepare`` (issue 3), on synthetic photos with known truth.
+"""Accuracy and speed of ``weavecap.prepare``, on synthetic photos with known truth.
 
     .venv/bin/python scripts/bench_prepare.py               # 80 accuracy cases + speed
     .venv/bin/python scripts/bench_prepare.py --cases 200 --no-speed

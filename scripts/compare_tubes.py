@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""How much the tube sweep of a commit changes renders (issue 16, item 5).
+"""How much the tube sweep of a commit changes renders.
 
     .venv/bin/python scripts/compare_tubes.py [--before REV] [--radii 1.5,2.5,own] [--size 256]
 

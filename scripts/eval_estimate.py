@@ -1,4 +1,4 @@
-"""Measure the pre-estimation (issue 4, Wu et al. 2025 §5) on held-out synthetic photos.
+"""Measure the pre-estimation (Wu et al. 2025 §5) on held-out synthetic photos.
 
 Each photo: a random pattern (plain, twill, satin, basket, rib, random; up to 16 × 16) and
 parameters over Table 1 (:mod:`weavecap.estimate.sampling`, a seed the training never used),

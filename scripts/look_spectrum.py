@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Where a photo's texture lies in frequency, in cycles per yarn — and where a fitted fabric's
-render puts it. A measurement for docs/capture.md (Session 22: why no 2/2 herringbone of the
+render puts it. A measurement for docs/capture.md (why no 2/2 herringbone of the
 forward model matches Brodatz D16).
 
     .venv/bin/python scripts/look_spectrum.py ../shared/realdata/images/easy/brodatz_D16_herringbone_000deg.tiff

@@ -43,7 +43,7 @@ def test_draft_recovers_an_independent_photo(name, tmp_path):
 def test_a_random_8x8_of_one_colour_is_read_off_its_cells_looks(tmp_path):
     """The bench's random 8×8 (photo 14): both families one dark blue, flat yarns, a low side
     light casting long shadows at the floats' ends. The loss and the edge votes both pointed
-    away from the truth, and the fit ended 15 cells off it (Sessions 14-19); the cells' looks
+    away from the truth, and the fit ended 15 cells off it (before the context check); the cells' looks
     (:func:`weavecap.fit.rounds.context_check`) read it. Measured at draft (45 s): the edges'
     decode taken first, its context misfit 0.69; the truth found at 0.21 and taken, its loss
     0.96 times the decode's."""
@@ -84,7 +84,7 @@ def test_a_photo_brighter_than_the_rig_is_not_blown_out(tmp_path):
 
 
 def test_the_same_fabric_a_stop_darker_or_brighter_gives_the_same_colours(tmp_path):
-    """Exposure invariance (issue 11) with ``--exposure photo``: the photo is read relative to
+    """Exposure invariance with ``--exposure photo``: the photo is read relative to
     its own exposure (:func:`weavecap.estimate.preestimate.photo_exposure`), so the bench's plain
     shot a stop darker and a stop brighter is fitted to the same colours, and the report's gain
     follows the camera. Against the rig (the default) the fit's gain has a floor of 1: the

@@ -1,6 +1,6 @@
 """Batches: many inputs, one output folder each, one ``summary.jsonl`` line per input.
 
-DESIGN.md's contract for a command that takes several inputs (``weavecap fit PHOTO...``,
+docs/design.md's contract ("Commands") for a command that takes several inputs (``weavecap fit PHOTO...``,
 ``weavecap render PARAMS... MESH``): one input writes into ``OUT`` itself; several write into
 ``OUT/<stem>`` each (``<stem>-2``, ... when stems repeat, or names the command gives) and
 append one line per input to ``OUT/summary.jsonl`` as each finishes. A bad input does not stop

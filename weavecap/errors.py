@@ -2,7 +2,7 @@
 
 :data:`OUTCOMES` is the only place that decides how a command, or one photo of a batch, ends:
 the error raised → the status written in ``report.json`` / ``summary.jsonl`` and the exit
-status (DESIGN.md: 0 all done; 2 usage error, invalid input, or a missing requirement the message
+status (docs/design.md, "Commands": 0 all done; 2 usage error, invalid input, or a missing requirement the message
 names; 3 a photo was rejected; 1 anything unexpected). The command layer (``cli/main.py``) and the batch runner
 (:mod:`weavecap.batch`) both look it up; nothing else maps errors to numbers.
 

@@ -30,8 +30,8 @@ def test_twill_photo(twill_fabric, use_network):
 def test_a_photo_brighter_than_the_rig_is_estimated_at_its_exposure(twill_fabric):
     """The same photo 2 and 4 times brighter (both beyond what the rig makes of a white fabric):
     the pre-estimate finds gains in that ratio and the same colours (the brightest channel at
-    1, not every one), where without the gain every body colour ended at 1 (issue 11: the fit
-    then blew out to white)."""
+    1, not every one), where without the gain every body colour ended at 1 (the fit then
+    blew out to white)."""
     from weavecap.estimate.colour import linear_to_lab
 
     photo, grid, _ = photo_of(twill_fabric, cell_px=12)

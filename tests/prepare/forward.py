@@ -1,6 +1,6 @@
 """Photos rendered by weavecap's own forward model, with known truth (shared by tests and the bench).
 
-Issue 3 names "renders of the forward model" as the test data of preparation: yarns with
+Renders of the forward model are the test data of preparation: yarns with
 procedural plies and fibres, gaps lit from behind, warps and wefts of different colours and
 radii. Each photo is a random fabric over Table 1 (``weavecap.estimate.sampling``), turned
 in-plane, seen by a perspective camera, with noise and JPEG.

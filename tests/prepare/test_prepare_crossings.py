@@ -1,4 +1,4 @@
-"""Projections that repeat over several yarns (Wu et al. 2025 §4.4; issue 11).
+"""Projections that repeat over several yarns (Wu et al. 2025 §4.4).
 
 A weave's repeat can set its yarns' mean brightness apart: a basket 2/2's pairs, a random
 weave's columns of floats. The integral projection then repeats over the pairs (over the 6

@@ -1,4 +1,4 @@
-"""Preparation on renders of weavecap's own forward model (issue 3's test data).
+"""Preparation on renders of weavecap's own forward model (its test data).
 
 The forward model draws plies and fibres along each yarn, lights the gaps from behind and
 gives warps and wefts their own colours and radii; the repeat must still come out as the

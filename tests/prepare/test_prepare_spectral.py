@@ -151,7 +151,7 @@ def test_lattice_pitch_of_a_rib_counts_its_hidden_yarns_from_the_crossings():
 def test_spectrum_peaks_do_not_move_with_rounding_noise():
     """A perturbation of one part in a million finds the same peaks: under OpenCV 5 a float32
     local maximum compared with the float64 power dropped every peak that rounded up, and the
-    real W103 twill was rejected for want of its lattice (#0 of issue 11)."""
+    real W103 twill was rejected for want of its lattice."""
     img, _ = render("satin_5", size=(256, 256), pitch_px=(11.0, 6.0), noise=0.01, seed=4)
     grey = luminance(img).astype(np.float64)
     rng = np.random.default_rng(0)

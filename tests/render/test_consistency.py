@@ -1,4 +1,4 @@
-"""The surface model agrees with the forward model (issue 12's done-when, DESIGN.md "Output
+"""The surface model agrees with the forward model (docs/design.md, "Output
 renderers"): a flat swatch rendered by ``weavecap render --mode reference --light both --view
 front --camera orthographic --margin 0`` at the photo's scale matches ``weavecap synth`` of the
 same params at the same size: PSNR ≥ 28 dB after a 1-pixel blur, for every fixture.

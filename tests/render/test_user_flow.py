@@ -1,4 +1,4 @@
-"""The user's flow end to end (issue 12): `weavecap fit` of a real photo, then `weavecap render`
+"""The user's flow end to end: `weavecap fit` of a real photo, then `weavecap render`
 of its params.json on the towel (the photo and the towel from ../shared)."""
 
 from __future__ import annotations

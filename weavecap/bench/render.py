@@ -11,7 +11,7 @@ A list of sections (:data:`SECTIONS`); the woven and fold renderers add theirs w
   and compiling its kernels included), *warm* the fastest of WARM_ROUNDS later ones, taken
   alternately so the machine's load falls on both alike; the bake is timed apart; peak memory
   is the process's maximum resident set after the baseline's first render and at the end.
-  The goal (issue 12): the reference at most 4× the diffuse baseline, as a ratio measured
+  The goal: the reference at most 4× the diffuse baseline, as a ratio measured
   side by side.
 - ``consistency``: :func:`weavecap.render.consistency.compare_with_synth` for every fixture
   params file at the fixture photos' scale (4×4 repeats, 512 pixels, 64 spp).

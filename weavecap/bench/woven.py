@@ -344,7 +344,7 @@ def encoder_time(fabric: Fabric, maps, *, calls: int = 5) -> float:
 
 
 def run(*, views=VIEWS, size: int = SIZE, truth_spp: int = TRUTH_SPP, fabrics=None, progress=None) -> dict:
-    """The whole section: per fabric and view the quality figures, the criteria of issue 13,
+    """The whole section: per fabric and view the quality figures, the done-when criteria,
     the frame times, the encoder time, the weights' size and the furnace test. Images are
     returned under ``"images"`` (fabric name → view name → dict)."""
     from ..render.surface import bake

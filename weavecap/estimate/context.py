@@ -1,5 +1,5 @@
 """The pattern a photo's own cells explain best: cells in the same neighbourhood look alike
-(issue 11; Wu et al. 2025 §5.1's question, answered without the forward model).
+(Wu et al. 2025 §5.1's question, answered without the forward model).
 
 A cell's look is set by which yarn is on top there and by what its neighbours do: a yarn in
 the middle of a float, at its end, or alone between two of the other family each look their
@@ -19,7 +19,7 @@ The true pattern explains them with few terms; a wrong one puts unlike cells in 
 What it cannot see: the face (every cell flipped explains the looks equally, the terms merely
 relabelled; the edge votes tell it, :func:`weavecap.estimate.orientation.vote_residual`); and
 it needs many more cells than its 10 free terms. On the final targets of the independent
-bench's 18 photos (:mod:`weavecap.bench.heightfield_photos`; Session 20, docs/capture.md) the best
+bench's 18 photos (:mod:`weavecap.bench.heightfield_photos`; docs/capture.md) the best
 pattern it found was the truth, up to the face, on 15; on the random 8×8 (64 cells, its two
 families one colour) the truth left the looks 2.1 times less unexplained than the fitted
 pattern, 15 cells off. On the 3×3 twills (9 cells) and the weft-faced satin 5 (25) it found

@@ -1,4 +1,4 @@
-"""A model-free vote per cell on which yarn is on top (issue 11; Wu et al. 2025 §5.1's question).
+"""A model-free vote per cell on which yarn is on top (Wu et al. 2025 §5.1's question).
 
 §5.1 anneals the pattern against the forward model: a cell's state is the one whose render
 explains the photo better. When the model's render differs from the photo (another shading,
@@ -164,8 +164,8 @@ def decode_pattern(votes: np.ndarray) -> tuple[np.ndarray, float]:
     keeps both states) from the votes cut at each of their values (an offset hides the sign,
     not the order), from a diagonal each way and from a checkerboard; the lowest
     :func:`vote_misfit` wins. Returns (pattern (n_e, n_a) uint8 in the votes' phase, its
-    misfit). On the final targets of the independent bench photos (main's fits of session 12)
-    it gave the true pattern on 17 of 18, faces, directions and a random 6×6 included (the fits
+    misfit). On the final targets of the independent bench photos it
+    gave the true pattern on 17 of 18, faces, directions and a random 6×6 included (the fits
     had 7 wrong); the random 8×8's target was too far off to vote."""
     from .sampling import descend_by_flips, interlacing
 

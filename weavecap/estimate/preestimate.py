@@ -125,7 +125,7 @@ def photo_exposure(image: np.ndarray, grid: CellGrid, *, light: str = "both") ->
     largest at 1 (:attr:`~.colour.Colours.exposure`); 1 where no g does.
 
     Proportional to the photo: the same fabric a stop darker gives half the exposure, so a
-    photo divided by it reads the same whatever the camera's exposure (issue 11's invariance).
+    photo divided by it reads the same whatever the camera's exposure (exposure invariance).
     A single photo cannot tell a grey fabric from a white one a stop darker; this puts the
     brightest yarn colour at the rig's reach, and a back light seen through the gaps, which
     the fit's gain solve reads (:func:`weavecap.fit.joint.solve_colours`), fixes the rest.

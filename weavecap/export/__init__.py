@@ -1,4 +1,4 @@
-"""The fabric for the tools practitioners use (``weavecap export``; DESIGN.md, "Commands").
+"""The fabric for the tools practitioners use (``weavecap export``; docs/design.md, "Commands").
 
 One module per format, each a writer of plain data:
 

@@ -36,7 +36,7 @@ class FitConfig:
         whole range with everything else fixed (:func:`weavecap.fit.joint.scan_plies`)
     plies_flat : when the first scan's loss varies by less than this share of its minimum
         over every count, the photo does not determine the plies: the start's count is held
-        and no more steps go to it (issue 5 measured 2–7 % on forward-model renders)
+        and no more steps go to it (measured 2–7 % on forward-model renders)
     colour_solves : fractions of the steps after which the body colours and the rig's gain
         (the photo's exposure and white balance) are solved in closed form with everything
         else fixed (:func:`weavecap.fit.joint.solve_colours`): right at the start of each
@@ -116,7 +116,7 @@ class FitConfig:
         under the other rigs of :data:`weavecap.fit.rigs.BEST_RIGS`, one of them kept
         (:func:`weavecap.fit.rigs.search`); off at draft, which is for a quick look
     faithful_sharpness : a capture is faithful when its render has at least this share of the
-        photo's gradient energy (issue 11's bound on real photos) ...
+        photo's gradient energy (the bound on real photos) ...
     faithful_delta_e : ... and each yarn family's colour is within this CIEDE2000 of the
         photo's (:func:`weavecap.fit.fidelity.fidelity`)
     rig_loss_slack : a rig search weighs ``auto``'s capture and those whose loss is at most

@@ -1,4 +1,4 @@
-"""How faithful a capture is to its photo (issue 11; DESIGN.md "A capture is judged by its photo").
+"""How faithful a capture is to its photo (docs/design.md, "The capture pipeline": a capture is judged by its photo).
 
 PSNR rewards a blur: a fit that averages the photo's structure away scores well against a
 noisy photo. These figures compare the photo's repeat with the fit's render of it (both one

@@ -1,6 +1,6 @@
-"""What a capture fits and what it holds fixed, decided per photo, with the reasons (issue 11).
+"""What a capture fits and what it holds fixed, decided per photo, with the reasons.
 
-DESIGN.md: "What a photo cannot determine is fixed, not fitted, and the report says so." A
+docs/design.md, "The capture pipeline": "What a photo cannot determine is fixed, not fitted, and the report says so." A
 fit that spends steps on values the photo does not show lets them drift into whatever absorbs
 the model's mismatch, and a report that lists them as fitted claims more than the photo says.
 :func:`plan` decides, before the joint fit, from the start fabric and the canvas scale:

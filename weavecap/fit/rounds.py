@@ -210,7 +210,7 @@ def settle_by_votes(fits: dict[str, RegisteredFit], chosen: str, config) -> tupl
 
 def edge_check(prepared, best: RegisteredFit, config: FitConfig, *, c: int, fixed: frozenset[str], seed: int,
                budget_s: float | None) -> tuple[RegisteredFit, dict]:
-    """A word on the pattern from the photo's edges (Wu et al. 2025 §5.1's question, issue 11):
+    """A word on the pattern from the photo's edges (Wu et al. 2025 §5.1's question):
     the pattern the model-free votes of ``best``'s target decode to
     (:func:`weavecap.estimate.orientation.decode_pattern`) against the fitted one.
 
@@ -344,7 +344,7 @@ def widened(fabric: wparams.Fabric, ratio: float, fixed: frozenset[str] = frozen
 def widen_check(prepared, best: RegisteredFit, config: FitConfig, *, c: int, fixed: frozenset[str], seed: int,
                 budget_s: float | None) -> tuple[RegisteredFit, dict | None]:
     """A yarn family fitted far thinner than the other (its radius under ``config.widen_ratio``
-    of the other's), refitted at the other's radius (§3.3's yarn gaps, issue 11).
+    of the other's), refitted at the other's radius (§3.3's yarn gaps).
 
     The radii move by a greedy search of ±0.5 units (:class:`weavecap.fit.joint._RadiusSearch`),
     and early in the fit, while the cells are registered on a pre-estimate unlike the photo, a
@@ -394,7 +394,7 @@ def family_separation(target: np.ndarray, pattern: np.ndarray) -> np.ndarray:
 def phase_check(prepared, best: RegisteredFit, config: FitConfig, *, c: int, fixed: frozenset[str], seed: int,
                 budget_s: float | None) -> tuple[RegisteredFit, dict | None]:
     """The pattern's whole-cell phase on the photo, model-free (§5.2: the photo shows each
-    family's colour at the centres of its cells; issue 11).
+    family's colour at the centres of its cells).
 
     The cells are registered on renders of the fit (:func:`register_cells`'s correlation), and
     where the model renders the fabric unlike the photo the correlation can put the pattern a
@@ -435,7 +435,7 @@ def colour_check(best: RegisteredFit, config: FitConfig, *, fixed: frozenset[str
 
     Each round ends on the match too, but there it is kept for the loss alone: kept for its
     look in an early round, a match moved the later rounds elsewhere — the independent satin 8
-    warp-faced went from sharpness 0.76 to 0.31 (session 12, docs/capture.md). The fit's
+    warp-faced went from sharpness 0.76 to 0.31 (docs/capture.md). The fit's
     ``moves.family_colours`` records this stage's match."""
     from .joint import BODY_COLOUR_KEYS, end_on_family_colours
 

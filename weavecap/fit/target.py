@@ -379,11 +379,11 @@ def photo_blur(image: np.ndarray, target: np.ndarray, c: int, *, sharpness: floa
     bounded 1-D search over [0, c/4] — and capped at :func:`sharpness_blur` for
     ``sharpness`` (the render keeps that share of the photo's gradient energy): where the
     model cannot match the photo (another shading, colours not yet fitted), the MSE's best blur
-    grows to average the mismatch away (issue 11: 2.4–6.0 px on cells of 17–24 px, renders a
+    grows to average the mismatch away (real photos: 2.4–6.0 px on cells of 17–24 px, renders a
     sixth as sharp as their photos), and a fit through that blur learns a haze. At 1.0 the cap
     bound on the forward model's own renders too, whose 4-spp fibre grooves the photo's
-    median averages (own-render random 2×3: 35.2 → 31.1 dB); 0.9 is the sharpness issue 11
-    asks of a capture.
+    median averages (own-render random 2×3: 35.2 → 31.1 dB); 0.9 is the sharpness asked of a
+    capture.
     """
     from scipy.optimize import minimize_scalar
 

@@ -29,7 +29,7 @@ direction's variance onto every value with the smallest loading on it.)
 J is taken by forward finite differences of :data:`STEP` of each parameter's range (colours
 per channel), on renders made with the same samples, so the differences hold no sampling
 noise. A parameter is reported as *determined* when its standard error is at most
-:data:`DETERMINED_SE` of its range (two standard errors inside the 10% of issue 5's accuracy
+:data:`DETERMINED_SE` of its range (two standard errors inside the 10% accuracy
 goal). Units: every error is a fraction of the parameter's Table 1 range.
 """
 

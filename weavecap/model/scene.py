@@ -97,8 +97,8 @@ def light_rig(which: str = "both") -> LightRig:
     ambient in their place.
 
     ``--light auto`` never takes ``lamp`` before the fit (:func:`weavecap.fit.rigs.choose_rig`);
-    a rig search weighs it (:func:`weavecap.fit.rigs.search`). Measured with it (issue 11, normal; docs/capture.md,
-    Session 16), against auto's ``both``: on the independent photos, the satin 8 warp-faced's
+    a rig search weighs it (:func:`weavecap.fit.rigs.search`). Measured with it (normal; docs/capture.md, the light
+    rig), against auto's ``both``: on the independent photos, the satin 8 warp-faced's
     sharpness 0.31 → 1.05 (rounded pink risers where auto's are flat bars), the twill 3/1's ΔE
     13.3 / 2.1 → 5.5 / 5.3 and the twill 2/1 Z's 8.3 / 2.5 → 3.2 / 0.4; on the real photos, the
     plains W027 and W077 sharper (0.79 → 0.92, 0.74 → 0.88) but their colours further off (ΔE up

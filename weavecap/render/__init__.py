@@ -1,4 +1,4 @@
-"""Output renderers: the captured fabric on a garment mesh (DESIGN.md, "Output renderers").
+"""Output renderers: the captured fabric on a garment mesh (docs/design.md, "Output renderers").
 
 - :mod:`.surface` bakes the surface model of a fabric (per-repeat maps from Algorithm 1's
   yarns), :mod:`.bsdf` shades it with the BYSDF lobes of :mod:`weavecap.model.bysdf`;

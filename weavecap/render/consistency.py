@@ -1,5 +1,5 @@
 """The surface model against the forward model: a flat swatch rendered head-on under the capture
-rig must look like ``weavecap synth`` of the same fabric (DESIGN.md, "Output renderers").
+rig must look like ``weavecap synth`` of the same fabric (docs/design.md, "Output renderers").
 
 :func:`compare_with_synth` renders both at the same size and scale — the forward model's
 ``tiles × tiles`` repeats across ``size`` pixels, and ``weavecap render``'s reference mode of a

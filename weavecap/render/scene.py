@@ -1,6 +1,6 @@
 """The scene around a garment: a camera framed on the mesh, lights, an optional ground.
 
-Views (DESIGN.md, the ``render`` contract): ``front`` puts the camera on +z looking towards
+Views (docs/design.md, "Commands", the ``render`` contract): ``front`` puts the camera on +z looking towards
 −z with y up; ``back``, ``left``, ``right`` turn it about y (azimuth 180°, −90°, 90°);
 ``top`` looks down (elevation 90°, −z up in the image); ``AZ,EL`` gives azimuth and
 elevation in degrees. The camera frames the mesh's bounding box: with margin 0 its eight
