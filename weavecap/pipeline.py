@@ -133,6 +133,11 @@ def capture(photo_path: str | Path, options: CaptureOptions = CaptureOptions(), 
     from .fit.rigs import search
 
     searched = search(options.request, under, stages.Captured.weighed, say=say)
+    released = stages.decision_holds(decided, searched.kept)
+    if released:  # ``under`` reads ``decided`` when called: the captures start from the decision
+        say(f"the decided pattern {released}")
+        decided = decided.release(released)
+        searched = search(options.request, under, stages.Captured.weighed, say=say)
     kept: stages.Captured = searched.kept
     timings = {**clock.seconds, **kept.seconds}
     if len(searched.captures) > 1:

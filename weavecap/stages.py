@@ -160,8 +160,10 @@ class Decided:
     decision : the decision, or None (a given pattern or warm start; nothing decided)
     start : (n_e, n_a) the decided pattern registered on ``grid`` (the pre-estimate's start), or None
     known : the pattern the fit holds: the given one, or the decided one where the evidence
-        settles it (:attr:`weavecap.estimate.decide.PatternDecision.decided`), else None
+        settles it (:attr:`weavecap.estimate.decide.PatternDecision.decided`) and it is a
+        named weave (a custom pattern from the cells' votes is a start only), else None
     repeat_decided : whether the photo was prepared again at the decided repeat
+    released : why a held decision was let go (:func:`decision_holds`), or None
     """
 
     prepared: Prepared
@@ -170,12 +172,18 @@ class Decided:
     start: np.ndarray | None = None
     known: np.ndarray | None = None
     repeat_decided: bool = False
+    released: str | None = None
+
+    def release(self, why: str) -> Decided:
+        """The same decision as the fit's start only, and why."""
+        return dataclasses.replace(self, known=None, released=why)
 
 
 def decide(loaded: Loaded, prepared: Prepared, grid: CellGrid, options: CaptureOptions) -> Decided:
     """Decide the pattern from the photo's cells (the cell classifier's evidence over the
     lattice, :mod:`weavecap.estimate.decide`), unless a pattern or start is given."""
     from .estimate.decide import decide_on_photo
+    from .fit.rounds import is_named_weave
     from .fit.target import shifted
 
     if options.pattern is not None or options.start_from is not None:
@@ -184,8 +192,28 @@ def decide(loaded: Loaded, prepared: Prepared, grid: CellGrid, options: CaptureO
     start = (decision.pattern_at(shifted(grid, again.regularized.box))
              if decision is not None and decision.pattern.shape == grid.shape else None)
     return Decided(again, grid, decision, start=start,
-                   known=start if decision is not None and decision.decided else None,
+                   known=start if decision is not None and decision.decided and is_named_weave(start) else None,
                    repeat_decided=again is not prepared)
+
+
+#: a capture whose render keeps less than this share of its photo's gradient energy is blown
+#: out or black (the bench's back-lit twill 0.85 stop over, its decided twill 2/1 held: 0.0,
+#: every colour at L* 100; the same decision as a start: 1.16)
+LOST_SHARPNESS = 0.5
+
+
+def decision_holds(decided: Decided, kept: Captured) -> str | None:
+    """None where the capture ``kept`` under a held decided pattern looks like its photo; else
+    why the decision is let go (the fit then explores from it): its render lost the photo's
+    edges (sharpness under :data:`LOST_SHARPNESS`), which the fit's pattern checks, skipped for
+    a held pattern, would have caught. A given pattern is always held."""
+    if decided.known is None or decided.decision is None:
+        return None
+    sharpness = kept.weighed().sharpness
+    if sharpness is None or sharpness >= LOST_SHARPNESS:
+        return None
+    return (f"held, the capture rendered sharpness {sharpness:.2f} (under {LOST_SHARPNESS}: blown out or black); "
+            "captured again from it as a start")
 
 
 @dataclass(frozen=True)
@@ -242,7 +270,9 @@ def pre_estimate(decided: Decided, options: CaptureOptions, light: str) -> Start
                        pattern=decided.known, start=decided.start)
         fabric, notes = pre.fabric, pre.to_json()
     if decided.decision is not None:
-        notes["decision"] = decided.decision.to_json()
+        notes["decision"] = {**decided.decision.to_json(), "held": decided.known is not None}
+        if decided.released:
+            notes["decision"]["released"] = decided.released
     if options.pattern is not None:
         fabric = fabric.replace({"pattern": options.pattern})
     coloured = prepared

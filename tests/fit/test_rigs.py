@@ -96,7 +96,7 @@ def test_the_runner_prepares_a_photo_once_whatever_the_rig_search(monkeypatch):
     stage("load", lambda path: SimpleNamespace(input={}))
     stage("prepare", lambda loaded, options: prepared)
     stage("cells", lambda prep: SimpleNamespace(shape=(2, 2)))
-    decided = SimpleNamespace(prepared=prepared, grid=SimpleNamespace(shape=(2, 2)))
+    decided = SimpleNamespace(prepared=prepared, grid=SimpleNamespace(shape=(2, 2)), known=None, decision=None)
     stage("decide", lambda loaded, prep, grid, options: decided)
     stage("pre_estimate", lambda dec, options, light: SimpleNamespace(light=light, exposure=None))
     stage("plan", lambda start, dec, options: "plan")

@@ -59,8 +59,11 @@ def compare_with_synth(fabric: Fabric, *, tiles: int = 4, size: int = 512, spp: 
         path = Path(tmp) / "swatch.obj"
         path.write_text(flat_swatch(tiles * n_a * pitch_mm / 1000, tiles * n_e * pitch_mm / 1000).obj_text())
         mesh = load_mesh(path)
+    # the swatch's top left at warp 0, weft 0 of the fabric, as synth's image starts: the weave
+    # repeats every ``tiles``th of it either way, a colour order (longer) only so aligned
+    # (the surface counts weft floor((1 - t) n_e), t = 0 at the swatch's foot)
     options = RenderOptions(mode="reference", spp=spp, size=(width, height), view=(0.0, 0.0), camera="orthographic",
-                            margin=0.0, light="both", pitch_mm=pitch_mm, seed=seed)
+                            margin=0.0, light="both", pitch_mm=pitch_mm, seed=seed, offset=(0.0, 1.0 - tiles))
     result = render_fabric(fabric, mesh, options)
     return {"psnr_db": blurred_psnr(result.image, synth), "size": (width, height), "render": result.image,
             "synth": synth, "seconds": result.info["timings"]["total"],
