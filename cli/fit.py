@@ -86,9 +86,10 @@ def fit(photos, out, quality, light, budget_s, jobs, scheduler, start_from, patt
                                 start_from=wparams.load(start_from) if start_from else None,
                                 pattern=load_pattern(pattern_file) if pattern_file else None,
                                 use_network=not no_network, exposure=exposure))
-    result = run_folder(job, photos, out, jobs=jobs, scheduler=scheduler, force=force, on_event=tell.batch(
-        f"fitting ({quality})", lambda event, where: tell.say(f"{where} {event.item.source}: "
-                                                             f"{fitted(event.record, event.item.folder)}")))
+    with tell.stages():
+        result = run_folder(job, photos, out, jobs=jobs, scheduler=scheduler, force=force, on_event=tell.batch(
+            f"fitting ({quality})", lambda event, where: tell.say(f"{where} {event.item.source}: "
+                                                                 f"{fitted(event.record, event.item.folder)}")))
     if as_json:
         tell.json(result.lines if len(photos) > 1 else result.lines[0])
     tell.exit(result.exit)

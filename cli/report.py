@@ -10,9 +10,11 @@ or failed, one line each.
 
 from __future__ import annotations
 
+import contextlib
 import json
+import logging
 import sys
-from typing import Callable
+from typing import Callable, Iterator
 
 import click
 
@@ -40,6 +42,24 @@ class Reporter:
         """A message that only helps someone watching (:attr:`watched`)."""
         if self.watched:
             self.say(message)
+
+    @contextlib.contextmanager
+    def stages(self, channel: str = "weavecap.progress") -> Iterator[None]:
+        """Within it, the library's stage messages (the :mod:`logging` channel ``channel``, e.g.
+        :data:`weavecap.pipeline.PROGRESS`) show as progress (:meth:`progress`)."""
+        reporter = self
+
+        class Shown(logging.Handler):
+            def emit(self, record: logging.LogRecord) -> None:
+                reporter.progress(record.getMessage())
+
+        logger, handler = logging.getLogger(channel), Shown()
+        logger.addHandler(handler)
+        logger.setLevel(logging.INFO)
+        try:
+            yield
+        finally:
+            logger.removeHandler(handler)
 
     def counter(self, what: str, unit: str) -> Callable[[int, int], None]:
         """A ``(done, total)`` callable that keeps one line up to date while watched:

@@ -13,6 +13,7 @@ atomically, ``report.json`` last (its presence marks a finished photo).
 from __future__ import annotations
 
 import json
+import logging
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -25,6 +26,9 @@ from . import report as reports
 from . import stages
 from .stages import CaptureOptions
 
+#: the capture's stage messages (``photo: preparing …``), one a stage: ``weavecap fit`` shows
+#: them as progress (:meth:`cli.report.Reporter.stages`); a ``--jobs`` or Dask worker's go nowhere
+PROGRESS = logging.getLogger("weavecap.progress")
 OUTPUT_FILES = ("params.json", "report.json", "compare.png", "rectified.png", "grid.png", "loss.png", "diagnosis.png")
 
 
@@ -53,7 +57,7 @@ class FitJob:
     record = "report.json"
 
     def run(self, source: str, folder: str) -> dict:
-        cap = capture(source, self.options)
+        cap = capture(source, self.options, progress=lambda message: PROGRESS.info("%s: %s", source, message))
         write_capture(cap, Path(folder))
         return cap.report
 

@@ -31,7 +31,7 @@ def batch(tmp_path_factory):
     photos[1].write_bytes((PHOTOS / "plain.png").read_bytes()[:3000])  # truncated PNG
     shutil.copy(PHOTOS / "plain.png", photos[2])
     out = folder / "out"
-    result = run(*photos, "-o", out, "--quality", "draft", "--seed", "1")
+    result = run(*photos, "-o", out, "--quality", "draft", "--seed", "1", "-v")
     return photos, out, result
 
 
@@ -53,6 +53,9 @@ def test_batch_with_a_corrupt_photo_gives_two_results_three_lines_and_exit_3(bat
     assert not (out / "b_corrupt" / "params.json").exists()
     assert "Traceback" not in result.output
     assert "a_twill.png: twill" in result.output and "sharpness" in result.output and " light, " in result.output
+    for stage in ("loading", "preparing", "deciding the pattern", "pre-estimating", "fitting (draft",
+                  "measuring how well"):  # a line for every stage of a photo's capture (-v)
+        assert f"c_plain.png: {stage}" in result.output, stage
 
 
 def _follow(out: Path, schemas: Path) -> None:
