@@ -22,6 +22,10 @@ CASES = {
                   weft_colour=(0.53, 0.31, 0.21), gaps="dark", cross_section="lens", exposure_stops=0.6,
                   white_balance=(0.9, 1.0, 1.1)),
 }
+#: the structure correlation each case reaches at draft, at least: the warp-faced satin, its
+#: decided satin held through the fit, 0.41 (sharpness 0.82, ΔE 0 / 0, the pattern exact);
+#: fitted from the decision instead, 0.52 at sharpness 0.41 (a blurred render)
+MIN_STRUCTURE = {"satin5_warp": 0.38, "plain": 0.5}
 
 
 @pytest.mark.parametrize("name", sorted(CASES))
@@ -34,7 +38,7 @@ def test_draft_recovers_an_independent_photo(name, tmp_path):
     assert equal_up_to_shift(cap.fabric.pattern, spec.pattern), (weave_name(cap.fabric.pattern), weave_name(spec.pattern))
     fid = cap.report["fit"]["fidelity"]
     assert max(fid["delta_e"].values()) < 10, fid
-    assert fid["structure"] > 0.5, fid
+    assert fid["structure"] > MIN_STRUCTURE[name] and fid["sharpness"] > 0.7, fid
     light = cap.report["fit"]["light"]
     assert all(np.isfinite(light["gain"])) and min(light["gain"]) > 0
     assert "specular.coefficient" in cap.report["modelled"]["fixed"]

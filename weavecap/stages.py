@@ -183,7 +183,6 @@ def decide(loaded: Loaded, prepared: Prepared, grid: CellGrid, options: CaptureO
     """Decide the pattern from the photo's cells (the cell classifier's evidence over the
     lattice, :mod:`weavecap.estimate.decide`), unless a pattern or start is given."""
     from .estimate.decide import decide_on_photo
-    from .fit.rounds import is_named_weave
     from .fit.target import shifted
 
     if options.pattern is not None or options.start_from is not None:
@@ -192,7 +191,7 @@ def decide(loaded: Loaded, prepared: Prepared, grid: CellGrid, options: CaptureO
     start = (decision.pattern_at(shifted(grid, again.regularized.box))
              if decision is not None and decision.pattern.shape == grid.shape else None)
     return Decided(again, grid, decision, start=start,
-                   known=start if decision is not None and decision.decided and is_named_weave(start) else None,
+                   known=start if decision is not None and decision.decided and _held(start) else None,
                    repeat_decided=again is not prepared)
 
 
@@ -214,6 +213,19 @@ def decision_holds(decided: Decided, kept: Captured) -> str | None:
         return None
     return (f"held, the capture rendered sharpness {sharpness:.2f} (under {LOST_SHARPNESS}: blown out or black); "
             "captured again from it as a start")
+
+
+def _held(pattern: np.ndarray) -> bool:
+    """Whether a decided pattern is held through the fit: a named weave (a custom pattern from
+    the cells' votes is a start only) other than the plain weave. A plain's two phases are
+    each other's every cell flipped, which only the fit's votes between its starts tell apart:
+    held at the decision's phase, the bench's plain shot a stop over or under came out in other
+    colours (warp L* 27, 34, 71 at -1, 0, +1 stop); fitted from it, the plain is found as
+    before (21 of 22 real plains of the weave bench before the decision)."""
+    from .estimate.weave_name import weave_name
+
+    name = weave_name(pattern)
+    return not name.startswith("custom") and name != "plain"
 
 
 @dataclass(frozen=True)
