@@ -136,7 +136,7 @@ def test_a_signal_stops_a_render_within_2_s_during_a_cold_kernel_compile(sandbox
     cache.mkdir()
     out = sandbox / "out"
     out.mkdir()
-    proc = shell("render", PLAIN, SWATCH, "-o", out / "r.png", "--size", "64x36", "--view", "13,37",
+    proc = shell("render", PLAIN, SWATCH, "-o", out / "r.png", "--size", "64x36", "--view", "13,37", "--mode", "neural",
                  env={"DRJIT_CACHE_DIR": str(cache)})
     try:
         deadline = time.monotonic() + 120
