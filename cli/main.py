@@ -105,8 +105,8 @@ def cli() -> None:
 
 
 def main(argv: list[str] | None = None) -> None:
-    """Console-script entry point: the command as :func:`cli.process.run` runs it (a worker
-    thread, so that Ctrl-C and SIGTERM stop it within a fraction of a second)."""
+    """Console-script entry point: the command as :func:`cli.process.run` runs it (a child
+    process, so that Ctrl-C and SIGTERM stop it within a fraction of a second)."""
     process.run(lambda: cli.main(args=argv, prog_name="weavecap", standalone_mode=True))
 
 

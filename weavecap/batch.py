@@ -405,10 +405,11 @@ def _serial(batch: Batch, on_start: Callable[[Item, int], None]) -> Outcomes:
         yield (item, *attempt(batch.job, str(item.source), str(item.folder)))
 
 
-def _die_with_parent(parent: int) -> None:
-    """Initializer of a ``--jobs`` worker process: the kernel kills it (SIGKILL) when the
-    weavecap process that started it ends, however it ends (``kill -9`` included); a worker
-    left behind would go on fitting, ~620 MB each, for nobody."""
+def die_with_parent(parent: int) -> None:
+    """Make this process die (SIGKILL from the kernel) when ``parent``, the process that
+    started it, ends, however it ends (``kill -9`` included): a ``--jobs`` worker's
+    initializer, and the command process of ``cli/process.py``; one left behind would go on
+    fitting, ~620 MB each, for nobody."""
     import ctypes
 
     pr_set_pdeathsig = 1  # <sys/prctl.h>
@@ -425,7 +426,7 @@ def _processes(batch: Batch, jobs: int) -> Outcomes:
     # the death signal follows the thread that starts a worker: the pool starts them in submit(),
     # from this thread, which lives until the pool is shut down
     with ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("spawn"),
-                             initializer=_die_with_parent, initargs=(os.getpid(),)) as pool:
+                             initializer=die_with_parent, initargs=(os.getpid(),)) as pool:
         futures = {pool.submit(attempt, batch.job, str(item.source), str(item.folder), threads): item
                    for item in batch.todo}
         for future in as_completed(futures):

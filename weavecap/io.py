@@ -13,7 +13,8 @@ The promises of ``docs/reliability.md``, each kept here in one place:
   renamed into place (:func:`atomic_path`); without ``overwrite`` the rename refuses to replace
   a file that appeared meanwhile. A result set — the files one input's run leaves in its
   folder — is staged whole and installed by :func:`write_result_set`, its record last.
-- Work abandoned on Ctrl-C leaves no temporary files behind (:func:`remove_unfinished`).
+- Work abandoned on Ctrl-C leaves no temporary files behind: each temporary file and staging
+  folder is journalled (:func:`journal_to`) to the process that removes them (:class:`Unfinished`).
 """
 
 from __future__ import annotations
@@ -46,8 +47,47 @@ MAX_JSON_DEPTH = 64
 
 _JSON_STRING = re.compile(r'"(?:[^"\\]|\\.)*"')  # a JSON string, escapes included
 
-#: temporary files and staging folders being written now: removed if the command is abandoned
-_UNFINISHED: set[Path] = set()
+#: the file descriptor the temporary files and staging folders being written are told to
+#: (``cli/process.py``'s pipe), or None
+_JOURNAL_FD: int | None = None
+
+
+def journal_to(fd: int | None) -> None:
+    """Tell ``fd`` (a pipe's writing end) of every temporary file and staging folder as it
+    appears (``+path``) and goes (``-path``), one line each: a command's parent process removes
+    what is left when it ends the command on Ctrl-C (:class:`Unfinished`)."""
+    global _JOURNAL_FD
+    _JOURNAL_FD = fd
+
+
+def _tell(sign: str, path: Path) -> None:
+    if _JOURNAL_FD is not None:
+        os.write(_JOURNAL_FD, f"{sign}{os.fsdecode(os.path.abspath(path))}\n".encode("utf-8", "surrogateescape"))
+
+
+class Unfinished:
+    """The temporary files and staging folders a command's process journalled
+    (:func:`journal_to`) and had not finished: fed the journal's bytes as they come."""
+
+    def __init__(self):
+        self.paths: set[Path] = set()
+        self._partial = b""
+
+    def feed(self, data: bytes) -> None:
+        lines = (self._partial + data).split(b"\n")
+        self._partial = lines.pop()
+        for line in lines:
+            text = line.decode("utf-8", "surrogateescape")
+            (self.paths.add if text[:1] == "+" else self.paths.discard)(Path(text[1:]))
+
+    def remove(self) -> None:
+        """Remove them (finished files are untouched)."""
+        for path in self.paths:
+            if path.is_dir():
+                shutil.rmtree(path, ignore_errors=True)
+            else:
+                with contextlib.suppress(OSError):
+                    path.unlink()
 
 
 # ---------------------------------------------------------------------------------------------
@@ -223,7 +263,7 @@ def atomic_path(path: str | os.PathLike, *, overwrite: bool = True) -> Iterator[
     fd, tmp = tempfile.mkstemp(prefix=f".{dest.stem}.", suffix=dest.suffix, dir=dest.parent)
     os.close(fd)
     tmp_path = Path(tmp)
-    _UNFINISHED.add(tmp_path)
+    _tell("+", tmp_path)
     try:
         yield tmp_path
         os.chmod(tmp_path, _new_file_mode())  # mkstemp's 0600 would hide results from others
@@ -236,7 +276,7 @@ def atomic_path(path: str | os.PathLike, *, overwrite: bool = True) -> Iterator[
                 raise InputError(f"{dest}: appeared while this run worked (another run?); it was kept; pass "
                                  "--force to overwrite it, or choose another output name") from None
     finally:
-        _UNFINISHED.discard(tmp_path)
+        _tell("-", tmp_path)
         if tmp_path.exists():
             tmp_path.unlink()
 
@@ -285,7 +325,7 @@ def write_result_set(folder: str | os.PathLike, files: dict[str, Callable[[Path]
     for old in folder.glob(STAGING + "*"):
         shutil.rmtree(old, ignore_errors=True)
     stage = Path(tempfile.mkdtemp(prefix=STAGING, dir=folder))
-    _UNFINISHED.add(stage)
+    _tell("+", stage)
     try:
         names = [*files, record[0]]
         for name, write in files.items():
@@ -298,20 +338,9 @@ def write_result_set(folder: str | os.PathLike, files: dict[str, Callable[[Path]
             os.replace(stage / name, folder / name)
         stage.rmdir()
     finally:
-        _UNFINISHED.discard(stage)
+        _tell("-", stage)
         if stage.exists():
             shutil.rmtree(stage, ignore_errors=True)
-
-
-def remove_unfinished() -> None:
-    """Remove the temporary files and staging folders being written now (a command abandoned
-    on Ctrl-C: ``cli/main.py``); finished files are untouched."""
-    for path in list(_UNFINISHED):
-        if path.is_dir():
-            shutil.rmtree(path, ignore_errors=True)
-        else:
-            with contextlib.suppress(OSError):
-                path.unlink()
 
 
 # ---------------------------------------------------------------------------------------------
