@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+import subprocess
 import sys
 
 import pytest
@@ -49,24 +51,30 @@ def broken_command(tmp_path, monkeypatch):
     (tmp_path / "weavecap_broken_cmd.py").write_text("import weavecap_no_such_dependency\n")
     monkeypatch.syspath_prepend(str(tmp_path))
     monkeypatch.setitem(main.COMMANDS, "broken", "weavecap_broken_cmd:broken")
-    monkeypatch.delenv("WEAVECAP_DEBUG", raising=False)
     sys.modules.pop("weavecap_broken_cmd", None)
     return main
 
 
-def test_a_broken_command_module_is_an_unexpected_error_not_an_unknown_command(broken_command, capsys):
-    with pytest.raises(SystemExit) as info:
-        broken_command.main(["broken"])
-    err = capsys.readouterr().err
-    assert info.value.code == 1
-    assert "No module named 'weavecap_no_such_dependency'" in err and "unexpected error" in err
-    assert "No such command" not in err and "Traceback" not in err
+def _weavecap_with_broken(tmp_path, *args, debug: bool = False) -> subprocess.CompletedProcess:
+    """``weavecap ARGS`` as its console script runs it (the command in a child process), with
+    the broken command registered."""
+    script = (f"import sys; sys.path.insert(0, {str(tmp_path)!r}); from weavecap.cli import main; "
+              "main.COMMANDS['broken'] = 'weavecap_broken_cmd:broken'; main.main(sys.argv[1:])")
+    env = {k: v for k, v in os.environ.items() if k != "WEAVECAP_DEBUG"} | ({"WEAVECAP_DEBUG": "1"} if debug else {})
+    return subprocess.run([sys.executable, "-c", script, *args], env=env, capture_output=True, text=True, timeout=120)
 
 
-def test_a_broken_command_shows_its_traceback_with_weavecap_debug(broken_command, monkeypatch):
-    monkeypatch.setenv("WEAVECAP_DEBUG", "1")
-    with pytest.raises(ModuleNotFoundError, match="weavecap_no_such_dependency"):
-        broken_command.main(["broken"])
+def test_a_broken_command_module_is_an_unexpected_error_not_an_unknown_command(broken_command, tmp_path):
+    done = _weavecap_with_broken(tmp_path, "broken")
+    assert done.returncode == 1
+    assert "No module named 'weavecap_no_such_dependency'" in done.stderr and "unexpected error" in done.stderr
+    assert "No such command" not in done.stderr and "Traceback" not in done.stderr
+
+
+def test_a_broken_command_shows_its_traceback_with_weavecap_debug(broken_command, tmp_path):
+    done = _weavecap_with_broken(tmp_path, "broken", debug=True)
+    assert done.returncode == 1
+    assert "Traceback" in done.stderr and "ModuleNotFoundError" in done.stderr, done.stderr
 
 
 def test_help_still_lists_the_other_commands_and_names_the_broken_one(broken_command):
@@ -76,7 +84,6 @@ def test_help_still_lists_the_other_commands_and_names_the_broken_one(broken_com
     assert "broken" in result.output and "weavecap_no_such_dependency" in result.output
 
 
-def test_only_an_unknown_name_is_no_such_command(broken_command, capsys):
-    with pytest.raises(SystemExit) as info:
-        broken_command.main(["brokn"])
-    assert info.value.code == 2 and "No such command" in capsys.readouterr().err
+def test_only_an_unknown_name_is_no_such_command(broken_command, tmp_path):
+    done = _weavecap_with_broken(tmp_path, "brokn")
+    assert done.returncode == 2 and "No such command" in done.stderr

@@ -80,6 +80,20 @@ class Unfinished:
             text = line.decode("utf-8", "surrogateescape")
             (self.paths.add if text[:1] == "+" else self.paths.discard)(Path(text[1:]))
 
+    def read(self, fd: int, timeout: float, *, until_closed: bool = False) -> bool:
+        """Feed what the pipe ``fd`` holds within ``timeout`` seconds (``until_closed``: what
+        comes, each within it, until the pipe closes); False once the pipe is closed."""
+        import select
+
+        while select.select([fd], [], [], timeout)[0]:
+            data = os.read(fd, 1 << 16)
+            self.feed(data)
+            if not data:
+                return False
+            if not until_closed:
+                break
+        return True
+
     def remove(self) -> None:
         """Remove them (finished files are untouched)."""
         for path in self.paths:
