@@ -38,13 +38,14 @@ photo=$("$bin/python" -c 'from weavecap import fixtures; print(fixtures.path("ph
 "$bin/weavecap" fit "$photo" -o fit --quality draft -q
 test -s fit/params.json && test -s fit/report.json
 echo "check_wheel: the installed wheel fitted $photo ($(cd "$work" && "$bin/python" -c 'import json; r=json.load(open("fit/report.json")); print(r["weave"], r["fit"]["psnr_db"], "dB")'))"
-# and the captured fabric on a garment, from the installed wheel (the demo's last step, tiny)
+# and the captured fabric on a garment, from the installed wheel, by its packaged neural and fold
+# networks (the demo's last step, tiny)
 skirt=$("$bin/python" -c 'from weavecap import fixtures; print(fixtures.path("meshes", "skirt.obj"))')
-"$bin/weavecap" render fit/params.json "$skirt" -o skirt.png --size 96x72 --pitch-mm 3 --fold on --json > render.json
+"$bin/weavecap" render fit/params.json "$skirt" -o skirt.png --size 96x72 --pitch-mm 3 --mode neural --fold on -q
 test -s skirt.png
 "$bin/python" - <<'PY'
 import json, sys
-image = json.load(open("render.json"))["images"][0]
+image = json.load(open("skirt.png.json"))  # the render's record beside the image
 if image["mode"] != "neural" or image["fold"] != "blidf":
     sys.exit(f"check_wheel: the wheel rendered mode {image['mode']} with fold {image['fold']}, not neural + blidf")
 PY
