@@ -11,7 +11,6 @@ or failed, one line each.
 from __future__ import annotations
 
 import contextlib
-import json
 import logging
 import sys
 from typing import Callable, Iterator
@@ -89,8 +88,10 @@ class Reporter:
 
     @staticmethod
     def json(doc) -> None:
-        """``--json``: ``doc`` on standard output, indented."""
-        click.echo(json.dumps(doc, indent=1))
+        """``--json``: ``doc`` on standard output, indented (strict JSON: an unmeasured figure is null)."""
+        from weavecap.io import dumps_json
+
+        click.echo(dumps_json(doc, indent=1))
 
     @staticmethod
     def exit(status: int) -> None:

@@ -24,7 +24,6 @@ more on another, then reported failed.
 from __future__ import annotations
 
 import contextlib
-import json
 import logging
 import os
 import signal
@@ -35,8 +34,8 @@ from pathlib import Path
 from typing import Callable, Iterable, Iterator, Protocol
 
 from .errors import InputError, WeavecapError, outcome, outcome_of_status, worst_exit
-from .io import (LOCK, atomic_write_text, check_writable, folder_lock, folder_name, inside, loads_json, not_an_input,
-                 staged, write_result_set)
+from .io import (LOCK, atomic_write_text, check_writable, dumps_json, folder_lock, folder_name, inside, loads_json,
+                 not_an_input, staged, write_result_set)
 
 SUMMARY = "summary.jsonl"
 FINISHED = ("ok", "rejected")  # statuses of a record that a resumed batch skips
@@ -293,7 +292,7 @@ def _set_threads(threads: int | None) -> None:
 def write_record(job: Job, folder: str | Path, record: dict) -> None:
     """Write a failure's record as the folder's whole result set: an earlier run's outputs
     go (:func:`weavecap.io.write_result_set`), so no old params.json outlives it."""
-    write_result_set(folder, {}, record=(job.record, json.dumps(record, indent=1) + "\n"), outputs=job.outputs)
+    write_result_set(folder, {}, record=(job.record, dumps_json(record, indent=1) + "\n"), outputs=job.outputs)
 
 
 def attempt(job: Job, source: str, folder: str, threads: int | None = None) -> tuple[dict, str]:
@@ -325,7 +324,7 @@ def attempt(job: Job, source: str, folder: str, threads: int | None = None) -> t
 def _append(path: Path, line: dict) -> None:
     """Append one JSON line and flush it to disk (a crash loses at most the line being written)."""
     with open(path, "a", encoding="utf-8") as fh:
-        fh.write(json.dumps(line) + "\n")
+        fh.write(dumps_json(line) + "\n")
         fh.flush()
         os.fsync(fh.fileno())
 

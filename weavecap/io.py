@@ -386,6 +386,31 @@ def loads_json(text: str):
     return json.loads(text)
 
 
+def dumps_json(doc, *, indent: int | None = None) -> str:
+    """Strict JSON text of ``doc``: a non-finite number (a figure that could not be measured,
+    e.g. the structure correlation of a flat render) is written as ``null``, never as the
+    ``NaN`` / ``Infinity`` that Python alone reads back. Tuples become lists, NumPy scalars
+    and arrays plain numbers and lists."""
+    import math
+
+    import numpy as np
+
+    def strict(x):
+        if isinstance(x, dict):
+            return {k: strict(v) for k, v in x.items()}
+        if isinstance(x, (list, tuple)):
+            return [strict(v) for v in x]
+        if isinstance(x, np.ndarray):
+            return strict(x.tolist())
+        if isinstance(x, np.generic):
+            x = x.item()
+        if isinstance(x, float) and not math.isfinite(x):
+            return None
+        return x
+
+    return json.dumps(strict(doc), indent=indent, allow_nan=False)
+
+
 def user_cache_dir(*parts: str) -> Path:
     """The user's cache folder for weavecap (created), with ``parts`` appended.
 

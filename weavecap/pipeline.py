@@ -12,7 +12,6 @@ atomically, ``report.json`` last (its presence marks a finished photo).
 
 from __future__ import annotations
 
-import json
 import logging
 import time
 from dataclasses import dataclass, field
@@ -77,7 +76,7 @@ class FitJob:
                 "pattern_confidence": fit.get("pattern_confidence"), "yarns": record["grid"]["yarns"],
                 "light": fit.get("light", {}).get("rig"), "sharpness": fidelity.get("sharpness"),
                 "delta_e": fidelity.get("delta_e"), "clipped": fidelity.get("clipped"),
-                "photo_scale": fidelity.get("photo_scale")}
+                "photo_scale": fidelity.get("photo_scale"), "neutral_delta_e": fidelity.get("neutral_delta_e")}
 
 
 class _Clock:
@@ -196,7 +195,7 @@ def write_capture(cap: Capture, out_dir: Path) -> None:
     """Write a capture's outputs into ``out_dir`` as one result set, report.json last
     (:func:`weavecap.io.write_result_set`). A rejected photo gets report.json and, where
     preparation refused it, diagnosis.png; an earlier run's other outputs are removed."""
-    from .io import atomic_write_text, write_result_set
+    from .io import atomic_write_text, dumps_json, write_result_set
     from .photo import save_png
 
     files = {}
@@ -209,5 +208,5 @@ def write_capture(cap: Capture, out_dir: Path) -> None:
                 image = _enlarged(image)
             files[name] = lambda path, image=image: save_png(path, image)
         files["loss.png"] = lambda path: save_png(path, loss_plot(cap.history))
-    write_result_set(out_dir, files, record=("report.json", json.dumps(cap.report, indent=1) + "\n"),
+    write_result_set(out_dir, files, record=("report.json", dumps_json(cap.report, indent=1) + "\n"),
                      outputs=OUTPUT_FILES)

@@ -356,7 +356,7 @@ def finish(start: Start, planned: Plan, fitted: RegisteredFit, options: CaptureO
     from .estimate.cells import cell_canvas
     from .fit.compare import at_photo_scale
     from .fit.confidence import pattern_confidence
-    from .fit.fidelity import fidelity
+    from .fit.fidelity import fidelity, neutral_light_delta_e
     from .fit.uncertainty import standard_errors
     from .model.render import as_photographed, render_numpy, white_level
     from .model.scene import View, build_scene
@@ -373,9 +373,10 @@ def finish(start: Start, planned: Plan, fitted: RegisteredFit, options: CaptureO
     at_scale = at_photo_scale(start.coloured.rectification.image, fitted, fabric, c=c, spp=spp)
     errors = standard_errors(result.fabric, target, blur_px=blur_px, light=fitted.rig, spp=spp, fixed=planned.fixed,
                              scene=fs, rendered=rendered)
+    figures = fidelity(target, rendered, result.fabric.pattern, shot=(start.exposure or 1.0) * photo_canvas)
+    figures = dataclasses.replace(figures, neutral_delta_e=neutral_light_delta_e(at_scale.fabric, figures.lab))
     return Finished(fabric=at_scale.fabric, rendered=rendered, confidence=confidence, noise=noise, errors=errors,
-                    fidelity=fidelity(target, rendered, result.fabric.pattern,
-                                      shot=(start.exposure or 1.0) * photo_canvas), at_scale=at_scale)
+                    fidelity=figures, at_scale=at_scale)
 
 
 @dataclass(frozen=True)

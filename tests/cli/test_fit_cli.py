@@ -47,6 +47,9 @@ def test_batch_with_a_corrupt_photo_gives_two_results_three_lines_and_exit_3(bat
         assert line["light"] == fit["light"]["rig"] and line["sharpness"] == fit["fidelity"]["sharpness"]
         assert line["delta_e"] == fit["fidelity"]["delta_e"] and set(line["delta_e"]) == {"warp", "weft"}
         assert line["clipped"] == fit["fidelity"]["clipped"] and set(line["clipped"]) == {"warp", "weft"}
+        # the fabric's own colours, away from the fitted light (the photos' light is neutral)
+        assert line["neutral_delta_e"] == fit["fidelity"]["neutral_delta_e"]
+        assert max(line["neutral_delta_e"].values()) < 2, line["neutral_delta_e"]  # measured 0.6
     for name in ("a_twill", "c_plain"):
         for file in ("params.json", "report.json", "compare.png", "rectified.png", "grid.png", "loss.png"):
             assert (out / name / file).is_file(), (name, file)

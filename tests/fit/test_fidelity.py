@@ -210,3 +210,39 @@ def test_the_pixel_figure_scores_a_colour_swapped_fit_badly_where_the_family_mea
     assert pixels.colour_p90 > 12, pixels  # beyond the 12 a faithful capture keeps (measured: 15.2)
     itself = pixel_fidelity(photo, photo, C)
     assert itself.colour_p90 < 1e-6 and abs(itself.sharpness - 1) < 1e-9 and abs(itself.structure - 1) < 1e-9
+
+
+def test_equal_lightness_sees_hue_and_chroma_not_exposure():
+    """A colour two stops darker is the same colour at equal lightness; the same lightness in
+    another hue is not; black or NaN gives NaN, not an error."""
+    from weavecap.estimate.colour import linear_to_lab
+    from weavecap.fit.fidelity import at_equal_lightness
+
+    orange = np.array([0.6, 0.25, 0.08])
+    assert at_equal_lightness(linear_to_lab(orange), linear_to_lab(orange / 4)) < 0.05
+    assert at_equal_lightness(linear_to_lab(orange), linear_to_lab(4 * orange)) < 0.05  # above white too
+    grey = np.full(3, orange @ np.array([0.2126, 0.7152, 0.0722]))
+    assert at_equal_lightness(linear_to_lab(orange), linear_to_lab(grey)) > 20
+    assert np.isnan(at_equal_lightness(linear_to_lab(orange), [np.nan, 0, 0]))
+    assert np.isfinite(at_equal_lightness(linear_to_lab(orange), linear_to_lab(np.zeros(3))))
+
+
+def test_a_colour_the_light_took_is_seen_under_a_neutral_light():
+    """The photo of an orange fabric and two captures that render it exactly under their fitted
+    light: the fabric's own orange (ΔE 0 at equal lightness under a neutral light), and a grey
+    fabric under an orange light (what a coloured gain gave) — the family ΔE the fit sees is 0
+    for both, the neutral-light figure tells them apart."""
+    from pathlib import Path
+
+    from weavecap import params
+    from weavecap.fit.fidelity import neutral_light_delta_e, rendered_family_lab
+
+    base = params.load(Path(__file__).resolve().parents[2] / "fixtures" / "params" / "plain.json")
+    orange, grey = (0.7, 0.3, 0.1), (0.4, 0.4, 0.4)
+    right = base.replace({f"{f}.body_{t}": orange for f in ("warp", "weft") for t in ("reflection", "subsurface")})
+    cast = base.replace({f"{f}.body_{t}": grey for f in ("warp", "weft") for t in ("reflection", "subsurface")})
+    photo = {f: {"photo": lab} for f, lab in rendered_family_lab(right).items()}
+    good, bad = neutral_light_delta_e(right, photo), neutral_light_delta_e(cast, photo)
+    assert max(good.values()) < 0.05, good
+    assert min(bad.values()) > 10, bad  # beyond a faithful capture's ΔE 10 (measured 11.8: the
+    # fixture's white highlights are in both)

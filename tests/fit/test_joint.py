@@ -267,6 +267,45 @@ def test_colour_solve_raises_a_gain_the_photo_does_not_fix_just_into_range():
     assert blurred_mse(render_numpy(fs), target) < 1e-5
     np.testing.assert_allclose(fs.to_fabric().warp.body_reflection, (1.0, 0.625, 0.25), atol=0.02)
 
+def test_the_room_seen_through_a_front_lit_fabric_does_not_colour_the_light():
+    """A front-lit fabric photographed at a neutral gain of 2, the room behind its gaps orange
+    (a wall, the fibres beneath a dense cloth): the ``front`` rig's backdrop is no reference,
+    so the gain stays neutral and each yarn keeps its tint. Read as the back light, the gaps
+    made the light orange (gain 6.0 / 2.0 / 0.6) and both yarns blue (0.17 / 0.45 / 1.0)
+    to make up."""
+    from dataclasses import replace
+
+    from weavecap.fit.joint import BODY_COLOUR_KEYS, solve_colours
+    from weavecap.model.render import blurred_mse
+    from weavecap.model.scene import light_rig
+
+    matte = {"specular.reflection": (0.0, 0.0, 0.0), "specular.transmission": (0.0, 0.0, 0.0),
+             "specular.transmission_exit": (0.0, 0.0, 0.0)}
+    truth = params.load(FIXTURES / "plain.json").replace({
+        **matte, "warp.radius": 3.0, "weft.radius": 3.0,
+        "warp.body_reflection": (0.5, 0.45, 0.4), "warp.body_subsurface": (0.3, 0.3, 0.3),
+        "weft.body_reflection": (0.4, 0.45, 0.5), "weft.body_subsurface": (0.3, 0.3, 0.3)})
+    c, front = 16, light_rig("front")
+    assert not front.backdrop_is_reference and light_rig("both").backdrop_is_reference
+
+    def shot(rig):
+        fs = build_scene(truth, View(tiles=(2, 2), size=2 * c * max(truth.shape), spp=8), light=rig.with_gain(2.0))
+        return render_numpy(fs)
+
+    no_room = shot(replace(front, backdrop=0.0))
+    target = no_room + (shot(front) - no_room) * np.array([3.0, 1.0, 0.3])  # the room behind, orange
+    fs = build_scene(truth, View(tiles=(2, 2), size=2 * c * max(truth.shape), spp=8), light=front)
+    for k in BODY_COLOUR_KEYS:
+        fs.set(k, (0.5, 0.5, 0.5))
+    out = solve_colours(fs, target, lambda: blurred_mse(render_numpy(fs), target), spp=8, blur_px=0.0, gain=True)
+    assert out["gain_determined"] == [False, False, False]
+    gain = np.asarray(fs.rig.gain)
+    assert gain.max() / gain.min() < 1.001
+    for family in ("warp", "weft"):  # each yarn's own tint survives: red over blue, and the reverse
+        r, _, b = fs.to_fabric().get(f"{family}.body_reflection")
+        assert (r > b) == (family == "warp"), (family, r, b)
+
+
 def test_family_colours_raise_the_gain_without_brightening_the_highlights():
     """A shiny twill photographed at twice the rig's exposure, its highlights half the
     start's: the family colours ask for more than the body colours' range, so the gain rises

@@ -250,7 +250,7 @@ def _fit_row(photo: RealPhoto, out_dir: Path, quality: str) -> dict:
             "yarns": rep["grid"]["yarns"] if cap.status == "ok" else None,
             "psnr_db": fit.get("psnr_db"), "sharpness": fid.get("sharpness"), "delta_e": fid.get("delta_e"),
             "structure": fid.get("structure"), "photo_scale": fid.get("photo_scale"),
-            "seconds": rep["timings_s"]["total"]}
+            "neutral_delta_e": fid.get("neutral_delta_e"), "seconds": rep["timings_s"]["total"]}
 
 
 def _prepare_row(photo: RealPhoto, out_dir: Path) -> dict:
@@ -348,7 +348,9 @@ def summary(rows: list[dict], split: str | None = None) -> dict:
     photos with the ratio within 15 %, of all of them), ``views`` (fabrics whose views agree),
     the photo-scale figures of the fitted photos (:func:`weavecap.fit.compare.at_photo_scale`):
     ``pixel_p90`` (pixel colour difference p90 ≤ 12), ``pixel_sharpness`` (within 0.8–1.25),
-    ``pixel_structure`` (≥ 0.6), ``not_washed`` (sharpness ≥ 0.5), and the median seconds."""
+    ``pixel_structure`` (≥ 0.6), ``not_washed`` (sharpness ≥ 0.5), ``neutral_colour`` (each
+    family's colour under a neutral light within ΔE 10 of the photo's at equal lightness:
+    :func:`weavecap.fit.fidelity.neutral_light_delta_e`), and the median seconds."""
     if split is None:
         seen, rs = set(), []
         for r in rows:  # fabricnet/ comes first: a copy in images/ counts there
@@ -361,6 +363,8 @@ def summary(rows: list[dict], split: str | None = None) -> dict:
     agree = fabric_agreement(rs)
     secs = [r["seconds"] for r in rs if r["seconds"] is not None]
     scale = [r["photo_scale"] for r in rs if r["status"] == "ok" and r.get("photo_scale")]
+    neutral = [[v for v in r["neutral_delta_e"].values() if v is not None]
+               for r in rs if r["status"] == "ok" and r.get("neutral_delta_e")]
     return {
         "photos": len(rs),
         "fitted": _share([r["status"] == "ok" for r in fit_target]),
@@ -373,6 +377,7 @@ def summary(rows: list[dict], split: str | None = None) -> dict:
         "pixel_sharpness": _share([0.8 <= s["sharpness"] <= 1.25 for s in scale]),
         "pixel_structure": _share([s["structure"] >= 0.6 for s in scale]),
         "not_washed": _share([s["sharpness"] >= 0.5 for s in scale]),
+        "neutral_colour": _share([bool(v) and max(v) <= 10 for v in neutral]),
         "median_s": statistics.median(secs) if secs else float("nan"),
     }
 
@@ -392,10 +397,10 @@ def summary_table(rows: list[dict]) -> str:
         out.append(f"| {name} | {s['photos']} | {_frac(s['fitted'])} | {_frac(s['rejected'])} | {_frac(s['family'])} | "
                    f"{_frac(s['density'])} | {_frac(s['views'])} | {s['median_s']:.1f} |")
     out += ["", "| split | pixel colour p90 ≤ 12 (≥ 85 %) | sharpness 0.8–1.25 (≥ 85 %) | structure ≥ 0.6 (≥ 85 %) | "
-            "sharpness ≥ 0.5 (all) |", "|" + "---|" * 5]
+            "sharpness ≥ 0.5 (all) | colour under a neutral light within ΔE 10 |", "|" + "---|" * 6]
     for name, s in parts:
         out.append(f"| {name} | {_frac(s['pixel_p90'])} | {_frac(s['pixel_sharpness'])} | "
-                   f"{_frac(s['pixel_structure'])} | {_frac(s['not_washed'])} |")
+                   f"{_frac(s['pixel_structure'])} | {_frac(s['not_washed'])} | {_frac(s['neutral_colour'])} |")
     return "\n".join(out)
 
 

@@ -254,13 +254,18 @@ def solve_colours(fs: FabricScene, target: np.ndarray, measure: Callable[[], flo
     The gain k multiplies the whole render. Only what depends on no fitted value fixes k_c:
     the back light seen through the gaps, on the pixels that are wholly gap in the render and
     not clipped in the photo (highlights and transmitted light carry R^S and T^S, which the
-    gradient steps fit; a gap's edge moves with the radii). Where there are too few such
-    pixels (:data:`GAIN_MIN_PIXELS`: dark, clipped or thin gaps) or they spread too much (a
-    standard error of k_c over :data:`GAIN_DETERMINED` of it), the photo does not determine
-    k_c: those channels' gain is scaled evenly by the smallest factor (a gain of at least 1 in
-    the largest channel) whose colours, within their Table 1 range, explain the photo as well
-    as any (:func:`_range_scale`) — a photo brighter than the rig's white fabric gets the
-    exposure that brings it within reach instead of colours at the clamp.
+    gradient steps fit; a gap's edge moves with the radii), and only under a rig lit from the
+    back (:attr:`weavecap.model.scene.LightRig.backdrop_is_reference`): a front-lit rig's
+    backdrop is the room, of no known colour, and on dense real cloth its "gaps" show fibres
+    and shadows — read as the light's colour, they gave 35 of the real-photo bench's 141
+    captures (all under ``front``) a coloured light and the fabric the opposite cast. Where
+    there are too few such pixels (:data:`GAIN_MIN_PIXELS`: dark, clipped or thin gaps) or they
+    spread too much (a standard error of k_c over :data:`GAIN_DETERMINED` of it), or the rig is
+    front-lit, the photo does not determine k_c: those channels' gain is scaled evenly by the
+    smallest factor (a gain of at least 1 in the largest channel) whose colours, within their
+    Table 1 range, explain the photo as well as any (:func:`_range_scale`) — a photo brighter
+    than the rig's white fabric gets the exposure that brings it within reach instead of
+    colours at the clamp.
     """
     from scipy.optimize import lsq_linear
 
@@ -306,7 +311,7 @@ def solve_colours(fs: FabricScene, target: np.ndarray, measure: Callable[[], flo
         pure = binary_erosion(seen_gap >= 1.0, iterations=1 + int(np.ceil(2 * blur_px)), border_value=1)
         for ch in range(3):
             where = pure & seen[..., ch] & np.isfinite(target[..., ch])
-            if fs.rig.backdrop <= 0 or where.sum() < GAIN_MIN_PIXELS:
+            if not fs.rig.backdrop_is_reference or where.sum() < GAIN_MIN_PIXELS:
                 continue
             ratio = target[..., ch][where] / fs.rig.backdrop
             k_c = float(np.median(ratio))

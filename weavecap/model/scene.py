@@ -77,6 +77,13 @@ class LightRig:
     def lit_from_back(self) -> bool:
         return any(light.direction[2] < 0 for light in self.lights)
 
+    @property
+    def backdrop_is_reference(self) -> bool:
+        """Whether what the gaps show is a reference for the photo's exposure and white
+        balance: the lit panel of a rig lit from the back, not the room behind a front-lit
+        fabric."""
+        return self.lit_from_back and self.backdrop > 0
+
 
 FRONT = Light(_unit(0.25, -0.35, 1.0), 1.0)
 BACK = Light(_unit(0.1, 0.15, -1.0), 1.0)

@@ -9,7 +9,6 @@ grid search saw) and ``prepare.json`` (why), in place of an earlier set.
 
 from __future__ import annotations
 
-import json
 import time
 from pathlib import Path
 from typing import Callable
@@ -17,7 +16,7 @@ from typing import Callable
 import numpy as np
 
 from ..errors import InputError
-from ..io import check_writable, folder_lock, not_an_input, refuse_overwrite, write_result_set
+from ..io import check_writable, dumps_json, folder_lock, not_an_input, refuse_overwrite, write_result_set
 from ..photo import load_photo, save_png
 from .config import PrepareConfig
 from .pipeline import Rejected, prepare_photo
@@ -67,7 +66,7 @@ def prepare_into(photo: Path, out: Path, *, repeat: tuple[int, int] | None = Non
         record = {"format": RECORD_FORMAT, "input": photo_info, **result.to_json()}
         if isinstance(result, Rejected):
             write_result_set(out, {"diagnosis.png": lambda path: save_png(path, result.diagnosis(loaded.rgb))},
-                             record=(OUTPUTS[-1], json.dumps(record, indent=1) + "\n"), outputs=OUTPUTS)
+                             record=(OUTPUTS[-1], dumps_json(record, indent=1) + "\n"), outputs=OUTPUTS)
             return record
         say("writing " + ", ".join(OUTPUTS))
         record["timings_s"]["with_io"] = round(time.perf_counter() - t0, 4)
@@ -75,5 +74,5 @@ def prepare_into(photo: Path, out: Path, *, repeat: tuple[int, int] | None = Non
                                          "regularized.png": result.regularized.image,
                                          "grid.png": result.grid_overlay()}
         write_result_set(out, {name: lambda path, image=image: save_png(path, image) for name, image in images.items()},
-                         record=(OUTPUTS[-1], json.dumps(record, indent=1) + "\n"), outputs=OUTPUTS)
+                         record=(OUTPUTS[-1], dumps_json(record, indent=1) + "\n"), outputs=OUTPUTS)
     return record

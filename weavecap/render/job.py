@@ -13,7 +13,6 @@ beside it (``dress.png``, ``dress.png.json``).
 from __future__ import annotations
 
 import contextlib
-import json
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -23,7 +22,7 @@ import numpy as np
 
 from .. import batch as wbatch
 from ..errors import InputError
-from ..io import atomic_path, atomic_write_text, check_writable, refuse_overwrite, write_result_set
+from ..io import atomic_path, atomic_write_text, dumps_json, check_writable, refuse_overwrite, write_result_set
 from ..params import Fabric
 from ..photo import file_sha256, load_photo, save_image, supported_output
 from .mesh import RenderMesh, load_mesh
@@ -112,7 +111,7 @@ class RenderJob:
                   "mesh": {"path": str(self.mesh.path), "triangles": int(len(self.mesh.faces))},
                   "output": str(folder / self.image), **info,
                   "timings_s": {k: round(v, 3) for k, v in timings.items()}}
-        text = json.dumps(record, indent=1) + "\n"
+        text = dumps_json(record, indent=1) + "\n"
         if self.alone:
             if self.force:  # the old record goes first: it never stands beside the new image
                 (folder / self.record).unlink(missing_ok=True)
