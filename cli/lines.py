@@ -22,6 +22,24 @@ def clipping_note(record: dict) -> str:
             "bound; shoot a stop darker")
 
 
+def colour_note(record: dict) -> str:
+    """A line for the fit's summary when the captured fabric, under a neutral light, is further
+    than a faithful capture's ΔE (``FitConfig.faithful_delta_e``) from the photo's colour in a
+    yarn family (``fit.fidelity.neutral_delta_e``): renders of it will not have the photo's
+    colour, though its compare.png, lit by the fitted light, may."""
+    from weavecap.fit.config import FitConfig
+
+    neutral = {k: v for k, v in record["fit"]["fidelity"].get("neutral_delta_e", {}).items() if v is not None}
+    worst = max(neutral, key=neutral.get, default=None)
+    if worst is None or neutral[worst] <= FitConfig.faithful_delta_e:
+        return ""
+    gain = record["fit"].get("light", {}).get("gain") or [1.0]
+    held = (f" (the fitted light holds the rest: gain {'/'.join(f'{g:.2f}' for g in gain)})"
+            if max(gain) > 1.05 * min(gain) else "")
+    return (f"\n  note: under a neutral light the {worst} yarns are ΔE {neutral[worst]:.1f} off the photo's "
+            f"colour{held}: a render will not match the photo")
+
+
 def fitted(record: dict, folder) -> str:
     """A fitted photo: its weave, repeat, PSNR, sharpness, light rig(s), time and folder."""
     fit = record["fit"]
@@ -29,7 +47,7 @@ def fitted(record: dict, folder) -> str:
     light = fit["light"]["rig"] + (f" light ({rigs} rigs tried)" if rigs > 1 else " light")
     return (f"{record['weave']}, {record['grid']['yarns'][0]}x{record['grid']['yarns'][1]} repeat, PSNR "
             f"{fit['psnr_db']:.1f} dB, sharpness {fit['fidelity']['sharpness']}, {light}, "
-            f"{record['timings_s']['total']:.1f} s -> {folder}{clipping_note(record)}")
+            f"{record['timings_s']['total']:.1f} s -> {folder}{clipping_note(record)}{colour_note(record)}")
 
 
 def tell_mesh(tell, mesh: dict) -> None:

@@ -146,6 +146,22 @@ def test_the_fits_line_says_when_the_camera_clipped_a_familys_colour():
     assert clipping_note(record({"warp": None, "weft": 0.0})) == "" and clipping_note({"fit": {"fidelity": {}}}) == ""
 
 
+def test_the_fits_line_says_when_the_fabric_lacks_the_photos_colour_under_a_neutral_light():
+    """Beyond a faithful capture's ΔE 10 (``fit.fidelity.neutral_delta_e``) the line names the
+    family, how far and the light's gain; within it, or where no figure was taken, nothing."""
+    from weavecap.cli.lines import colour_note
+
+    def record(neutral, gain=(7.74, 2.04, 0.73)):
+        return {"fit": {"fidelity": {"neutral_delta_e": neutral}, "light": {"gain": list(gain)}}}
+
+    note = colour_note(record({"warp": 24.6, "weft": 26.9}))
+    assert "weft yarns are ΔE 26.9 off" in note and "gain 7.74/2.04/0.73" in note
+    grey = colour_note(record({"warp": 16.4, "weft": 17.5}, gain=(4.54, 4.54, 4.54)))
+    assert "weft yarns are ΔE 17.5 off" in grey and "gain" not in grey  # not the light's doing
+    assert colour_note(record({"warp": 10.0, "weft": 2.0})) == ""
+    assert colour_note(record({"warp": None, "weft": None})) == "" and colour_note({"fit": {"fidelity": {}}}) == ""
+
+
 def _pattern_file(path: Path, pattern: np.ndarray) -> Path:
     path.write_text("\n".join(" ".join(map(str, row)) for row in pattern) + "\n")
     return path
