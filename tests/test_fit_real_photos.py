@@ -38,3 +38,22 @@ def test_the_grey_satin_ends_on_its_own_yarn_colours(shared):
     assert max(fid["delta_e"].values()) < 8.5 and fid["sharpness"] >= 0.7, fid
     match = cap.report["fit"]["moves"]["family_colours"]
     assert match["kept"] or match["sharpness"][1] > 1.25, match  # refused only for a render too sharp
+
+
+@pytest.mark.parametrize("photo, measured, before", [
+    (("kth_tips2a", "44a-scale_2_im_4_col.png"), 1.1, 25.5),
+    (("fabricnet", "fabricnet_0031.jpg"), 2.2, 11.2),
+])
+def test_a_front_lit_capture_keeps_its_colour_away_from_the_light(shared, photo, measured, before):
+    """Two DEV photos fitted under the ``front`` rig at draft: the light's gain stays neutral
+    (a front-lit rig's gaps show the room, no white reference), and the fabric under a neutral
+    light keeps the photo's colour (``neutral_delta_e``, worst family, measured ``measured``).
+    When the gaps set the light's colour, KTH 44a came out with gain 5.1 / 1.8 / 0.8 and the
+    fabric ``before`` off, FabricNET 0031 with its white warp tan."""
+    cap = capture(shared("realdata", *photo), CaptureOptions(quality="draft", seed=0))
+    assert cap.status == "ok", cap.report.get("reason")
+    light = cap.report["fit"]["light"]
+    if light["rig"] == "front":
+        assert max(light["gain"]) < 1.01 * min(light["gain"]), light
+    worst = max(cap.report["fit"]["fidelity"]["neutral_delta_e"].values())
+    assert worst < 2 * measured + 1.0 < before, (worst, light)
