@@ -1,4 +1,5 @@
-"""Promise: every record weavecap writes is strict JSON (RFC 8259) that jq or a browser reads:
+"""Promise: every record a command writes (report.json, summary.jsonl, the render and prepare
+records, `--json`) is strict JSON (RFC 8259) that jq or a browser reads:
 a figure that could not be measured — the structure correlation of a render with no contrast,
 a sharpness against a flat photo — is ``null``, never Python's ``NaN`` or ``Infinity``."""
 
