@@ -1,12 +1,15 @@
 """Irregularity post-estimation (§6.3 of Wu et al. 2025): 2D Gaussians over the residual's
 frequency spectrum, and synthesis of matching noise for tiles of any size.
 
-The residual (photo minus fitted render, grey, linear) holds what the procedural model cannot:
-flyaways, uneven yarns, highlights. Its power spectrum is modelled as a mixture of 2D
-Gaussians in frequency measured in *cycles per yarn pitch*, so the model does not depend on
-the photo's resolution. Each Gaussian's ``weight`` is the variance it carries (linear
-intensity²), so the weights sum to the residual's variance. Synthesis draws random phases
-under that spectrum and transforms back to the image domain [GHCG17-style spectral synthesis].
+The residual (:func:`irregularity`) holds what the procedural model cannot and what differs
+from one repeat of the photo to the next: flyaways, uneven yarns, highlights — relative to
+the photo's brightness, so that it does not depend on the exposure. Its power spectrum is
+modelled as a mixture of 2D Gaussians in frequency measured in *cycles per yarn pitch*, so
+the model does not depend on the photo's resolution either. Each Gaussian's ``weight`` is the
+variance it carries (of the relative brightness), so the weights sum to the residual's
+variance. Synthesis draws random phases under that spectrum and transforms back to the image
+domain [GHCG17-style spectral synthesis]; a render is multiplied by one plus it
+(:func:`add_noise`, :func:`weavecap.render.surface.noise_map`).
 
 The fit samples frequencies with probability proportional to power and fits scikit-learn's
 ``GaussianMixture`` to them — a few thousand points, milliseconds.
@@ -27,13 +30,70 @@ def _frequencies(shape: tuple[int, int], pitch_px: float) -> tuple[np.ndarray, n
     return np.meshgrid(fy, fx, indexing="ij")
 
 
+def irregularity(photo: np.ndarray, render: np.ndarray, *, cell_px: int, repeat: tuple[int, int],
+                 first: tuple[int, int] = (0, 0)) -> np.ndarray:
+    """§6.3's residual: what of the photo the capture does not explain and that differs between
+    the repeats of the weave, as relative brightness.
+
+    Parameters
+    ----------
+    photo, render : (Y·c, X·c, 3) linear RGB registered cell for cell — the photo over whole
+        cells and the capture rendered over them as photographed
+        (:class:`weavecap.fit.compare.PhotoScale`'s ``view.canvas`` and ``render``)
+    cell_px : c, pixels a cell side
+    repeat : (n_e, n_a), the weave's repeat in cells
+    first : (v0, u0), the repeat's cell that the canvas's first cell shows
+
+    Returns
+    -------
+    (Y·c, X·c) float64: the photo's grey over its local mean less the render's over its own
+    (each local mean a Gaussian of a repeat's size, at least two cells: what varies over more
+    than a repeat — light falloff, vignetting, the exposure — is not an irregularity), less the
+    part of that which repeats with the weave: its mean over the repeats in view of each cell
+    of the repeat, where that cell is seen at least twice (the remainder scaled by
+    √(k / (k − 1)) for k views, as a sample's deviations from its own mean are). Zeros where
+    the photo is black.
+
+    The part that repeats is the model's misfit, not an irregularity: drawn at random phases, as
+    synthesis draws, it is the weave's own frequency at random — the captures of real photos
+    fitted on the whole residual of one repeat rendered as black and white blotches.
+    """
+    from scipy.ndimage import gaussian_filter
+
+    c = int(cell_px)
+    n_e, n_a = (int(v) for v in repeat)
+    sigma = c * max(n_e, n_a, 2)
+
+    def relative(image) -> np.ndarray:
+        grey = np.asarray(image, np.float64).mean(axis=2)
+        grey = np.where(np.isfinite(grey), grey, 0.0)
+        local = gaussian_filter(grey, sigma=sigma, mode="reflect")
+        return np.where(local > 1e-6 * max(float(grey.max()), 1e-300), grey / np.maximum(local, 1e-300), 1.0)
+
+    r = relative(photo) - relative(render)
+    if r.size == 0 or not np.any(np.asarray(photo) > 0):
+        return np.zeros(r.shape)
+    rows, cols = r.shape[0] // c, r.shape[1] // c
+    blocks = r[:rows * c, :cols * c].reshape(rows, c, cols, c).transpose(0, 2, 1, 3).reshape(rows * cols, c, c)
+    i = (np.arange(rows)[:, None] + first[0]) % n_e
+    j = (np.arange(cols)[None, :] + first[1]) % n_a
+    which = np.broadcast_to(i * n_a + j, (rows, cols)).ravel()
+    count = np.bincount(which, minlength=n_e * n_a).astype(np.float64)[which][:, None, None]
+    total = np.zeros((n_e * n_a, c, c))
+    np.add.at(total, which, blocks)
+    blocks = np.where(count >= 2, (blocks - total[which] / count) * np.sqrt(count / np.maximum(count - 1, 1)), blocks)
+    out = r.copy()
+    out[:rows * c, :cols * c] = blocks.reshape(rows, cols, c, c).transpose(0, 2, 1, 3).reshape(rows * c, cols * c)
+    return out
+
+
 def fit_noise(residual: np.ndarray, *, pitch_px: float, components: int = 4, seed: int = 0) -> dict:
     """Fit the §6.3 model to a residual.
 
     Parameters
     ----------
-    residual : (H, W) or (H, W, 3) float array (linear; colour is averaged to grey). Non-finite
-        entries count as 0.
+    residual : (H, W) or (H, W, 3) float array (:func:`irregularity`'s relative brightness;
+        colour is averaged to grey). Non-finite entries count as 0.
     pitch_px : the yarn pitch in the residual's pixels (sets the frequency unit)
     components : number of Gaussians (fewer when the residual is too small)
     seed : seeds the mixture fit
@@ -111,8 +171,9 @@ def synthesize(noise: dict, shape: tuple[int, int], *, pitch_px: float, seed: in
 
 
 def add_noise(image: np.ndarray, noise: dict | None, *, pitch_px: float, seed: int = 0) -> np.ndarray:
-    """``image`` (H, W, 3) linear RGB plus synthesized noise on every channel, clipped at 0."""
+    """``image`` (H, W, 3) linear RGB times one plus the synthesized relative noise (the same
+    on every channel), clipped at 0."""
     if not noise or not noise.get("gaussians"):
         return image
     tile = synthesize(noise, image.shape[:2], pitch_px=pitch_px, seed=seed)
-    return np.clip(image + tile[..., None], 0.0, None).astype(image.dtype)
+    return np.clip(image * (1.0 + tile[..., None]), 0.0, None).astype(image.dtype)

@@ -395,8 +395,9 @@ VALUE_RANGES: dict[str, tuple[float, float, str]] = {
                        "is no fabric; 1e-300 made the renderer's texture coordinates overflow)"),
 }
 
-#: the noise block (§6.3): at most this many Gaussians; the weights are variances of linear
-#: intensity (summing to the residual's variance, at most 1 for an image in [0, 1]); means in
+#: the noise block (§6.3): at most this many Gaussians; the weights are variances of relative
+#: brightness (summing to the residual's variance; at most 1, a standard deviation of the
+#: brightness itself); means in
 #: cycles per yarn pitch; covariances positive definite with eigenvalues in this range
 NOISE_GAUSSIANS = 64
 NOISE_MEAN = 1.0e4
@@ -425,7 +426,7 @@ def check_values(doc: dict, *, path: str | None = None) -> None:
         _check_gaussian(g, f"noise.gaussians[{i}]", path)
     total = sum(g["weight"] for g in gaussians)
     if total > 1.0:
-        raise ParamsError(f"the weights sum to {total:.4g}; at most 1 (each weight is a variance of linear intensity, "
+        raise ParamsError(f"the weights sum to {total:.4g}; at most 1 (each weight is a variance of relative brightness, "
                           "their sum the photo's residual variance)", field="noise.gaussians", path=path)
 
 
@@ -433,8 +434,8 @@ def _check_gaussian(g: dict, fld: str, path: str | None) -> None:
     """One noise Gaussian: weight in [0, 1], mean within ±NOISE_MEAN, covariance symmetric
     positive definite with eigenvalues in NOISE_EIGENVALUES."""
     if not 0.0 <= g["weight"] <= 1.0:
-        raise ParamsError(f"{g['weight']!r} is out of range; expected a number in [0, 1] (a variance of linear "
-                          "intensity)", field=f"{fld}.weight", path=path)
+        raise ParamsError(f"{g['weight']!r} is out of range; expected a number in [0, 1] (a variance of "
+                          "relative brightness)", field=f"{fld}.weight", path=path)
     if max(abs(v) for v in g["mean"]) > NOISE_MEAN:
         raise ParamsError(f"{g['mean']!r} is out of range; expected frequencies within ±{NOISE_MEAN:g} cycles per "
                           "yarn pitch", field=f"{fld}.mean", path=path)

@@ -332,7 +332,7 @@ class Finished:
         the photo's scale
     rendered : (n_e*c, n_a*c, 3) its render as photographed (the fit's blur, clipped)
     confidence : the share of cells whose fitted state explains the photo better than its opposite
-    noise : the noise model (:func:`weavecap.noise.fit_noise`)
+    noise : the noise model (:func:`weavecap.noise.fit_noise` of :func:`weavecap.noise.irregularity`)
     errors : key → standard error (a fraction of its range; inf: unseen)
     fidelity : the render against the photo (:func:`weavecap.fit.fidelity.fidelity`)
     at_scale : the fit against the photo at the photo's own scale, every whole cell in view
@@ -350,9 +350,10 @@ class Finished:
 
 def finish(start: Start, planned: Plan, fitted: RegisteredFit, options: CaptureOptions) -> Finished:
     """Render the fit once as photographed, and from that render: how sure the pattern is, the
-    noise model on the residual (§6.3), the threads' colours and the figures at the photo's
-    scale (:func:`weavecap.fit.compare.at_photo_scale`), each value's standard error
-    (:func:`weavecap.fit.uncertainty.standard_errors`) and the fidelity figures."""
+    threads' colours and the figures at the photo's scale
+    (:func:`weavecap.fit.compare.at_photo_scale`), the noise model (§6.3) on what differs
+    between the repeats there (:func:`weavecap.noise.irregularity`), each value's standard
+    error (:func:`weavecap.fit.uncertainty.standard_errors`) and the fidelity figures."""
     from .estimate.cells import cell_canvas
     from .fit.compare import at_photo_scale
     from .fit.confidence import pattern_confidence
@@ -360,7 +361,7 @@ def finish(start: Start, planned: Plan, fitted: RegisteredFit, options: CaptureO
     from .fit.uncertainty import standard_errors
     from .model.render import as_photographed, render_numpy, white_level
     from .model.scene import View, build_scene
-    from .noise import fit_noise
+    from .noise import fit_noise, irregularity
 
     spp, c = options.config.spp, start.cell_px
     result, target, blur_px = fitted.result, fitted.target, fitted.blur_px
@@ -368,9 +369,12 @@ def finish(start: Start, planned: Plan, fitted: RegisteredFit, options: CaptureO
     rendered = as_photographed(render_numpy(fs), blur_px, white_level(target))
     confidence = pattern_confidence(fs, rendered, target, spp, blur_px)
     photo_canvas = cell_canvas(start.prepared.rectification.image, fitted.cells, c)
-    noise = fit_noise(photo_canvas - rendered, pitch_px=float(c), seed=options.seed)
-    fabric = dataclasses.replace(result.fabric, noise=noise) if noise["gaussians"] else result.fabric
-    at_scale = at_photo_scale(start.coloured.rectification.image, fitted, fabric, c=c, spp=spp)
+    at_scale = at_photo_scale(start.coloured.rectification.image, fitted, result.fabric, c=c, spp=spp)
+    view = at_scale.view
+    noise = fit_noise(irregularity(view.canvas, at_scale.render, cell_px=view.c, repeat=view.shape, first=view.first),
+                      pitch_px=float(view.c), seed=options.seed)
+    if noise["gaussians"]:
+        at_scale = dataclasses.replace(at_scale, fabric=dataclasses.replace(at_scale.fabric, noise=noise))
     errors = standard_errors(result.fabric, target, blur_px=blur_px, light=fitted.rig, spp=spp, fixed=planned.fixed,
                              scene=fs, rendered=rendered)
     figures = fidelity(target, rendered, result.fabric.pattern, shot=(start.exposure or 1.0) * photo_canvas)

@@ -66,22 +66,23 @@ def test_views_agree_only_when_every_view_gave_the_same_weave():
 
 
 def _row(set_, photo, split, expect, status, weave=None, pattern=None, family=None, fabric=None, pitch=None,
-         density=None, sha=None, reason=None, photo_scale=None, neutral=None):
+         density=None, sha=None, reason=None, photo_scale=None, neutral=None, noise=None):
     r = real.RealPhoto(path=Path(photo), set=set_, family=family, density=density, fabric=fabric, split=split,
                        expect=expect, sha256=sha or photo)
     raw = {"status": status, "code": None if status == "ok" else "no_grid", "reason": reason, "weave": weave,
            "pattern": None if pattern is None else np.asarray(pattern).tolist(), "pitch_px": pitch, "yarns": None,
-           "photo_scale": photo_scale, "neutral_delta_e": neutral, "seconds": 10.0}
+           "photo_scale": photo_scale, "neutral_delta_e": neutral, "noise": noise, "seconds": 10.0}
     return real.score(r, raw)
 
 
 def test_summary_counts_the_done_when_figures_per_split():
     rows = [
         _row("fabricnet", "a.jpg", "dev", "fit", "ok", "plain", PLAIN, "plain", "fabricnet:1", (10.0, 20.0), (30, 15),
-             photo_scale={"colour_p90": 8.0, "sharpness": 0.9, "structure": 0.7}, neutral={"warp": 2.0, "weft": 9.9}),
+             photo_scale={"colour_p90": 8.0, "sharpness": 0.9, "structure": 0.7}, neutral={"warp": 2.0, "weft": 9.9},
+             noise={"brightness": 1.01, "weave": 0.8}),
         _row("fabricnet", "b.jpg", "dev", "fit", "ok", "twill 2/2 Z", TWILL_22_Z, "plain", "fabricnet:1",
              (10.0, 10.0), (30, 15), photo_scale={"colour_p90": 14.0, "sharpness": 0.45, "structure": 0.5},
-             neutral={"warp": 3.0, "weft": None}),
+             neutral={"warp": 3.0, "weft": None}, noise={"brightness": 1.5, "weave": 0.3}),
         _row("fabricnet", "c.jpg", "held-out", "fit", "rejected", family="satin", fabric="fabricnet:2",
              density=(25, 50), reason="no grid"),
         _row("negative", "d.jpg", "dev", "reject", "rejected", reason="no regular yarn grid"),
@@ -97,6 +98,7 @@ def test_summary_counts_the_done_when_figures_per_split():
     assert dev["neutral_colour"] == (2, 2)  # a family the pattern never shows does not count
     rows[1]["neutral_delta_e"]["warp"] = 10.5
     assert real.summary(rows, "dev")["neutral_colour"] == (1, 2)
+    assert dev["noise_brightness"] == (1, 2) and dev["noise_weave"] == pytest.approx(0.55)  # the blotches brighten
     assert held["fitted"] == (0, 1) and held["density"] == (0, 1) and held["views"] == (0, 1)
     assert every["photos"] == 4  # the copy of a.jpg counts once
     table = real.summary_table(rows)

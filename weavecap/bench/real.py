@@ -21,7 +21,7 @@ pattern up to a cyclic shift and a quarter turn of the photo).
 
 Rules are decided on the DEV half of the fabrics only (:data:`HELD_OUT`, fixed before any
 rule was); the summary (:func:`summary`) is given for DEV, HELD-OUT and all photos. The scoring
-functions are pure and tested on known cases (tests/test_real_bench.py).
+functions are pure and tested on known cases (tests/bench/test_real.py).
 """
 
 from __future__ import annotations
@@ -239,18 +239,22 @@ def _fit_row(photo: RealPhoto, out_dir: Path, quality: str) -> dict:
     """Capture one photo end to end (``weavecap fit --quality``), write its outputs."""
     from ..pipeline import CaptureOptions, capture, write_capture
 
+    from ..fit.fidelity import with_noise
+
     cap = capture(photo.path, CaptureOptions(quality=quality))
     write_capture(cap, out_dir)
     rep = cap.report
     fit = rep.get("fit", {}) if cap.status == "ok" else {}
     fid = fit.get("fidelity") or {}
+    noise = with_noise(cap.fabric, rig=fit["light"]["rig"]) if cap.status == "ok" else {}
     return {"status": cap.status, "code": rep.get("code"), "reason": rep.get("reason"), "weave": rep.get("weave"),
             "pattern": None if cap.fabric is None else np.asarray(cap.fabric.pattern).tolist(),
             "pitch_px": rep["grid"]["pitch_px"] if cap.status == "ok" else None,
             "yarns": rep["grid"]["yarns"] if cap.status == "ok" else None,
             "psnr_db": fit.get("psnr_db"), "sharpness": fid.get("sharpness"), "delta_e": fid.get("delta_e"),
             "structure": fid.get("structure"), "photo_scale": fid.get("photo_scale"),
-            "neutral_delta_e": fid.get("neutral_delta_e"), "seconds": rep["timings_s"]["total"]}
+            "neutral_delta_e": fid.get("neutral_delta_e"),
+            "noise": {k: round(v, 4) for k, v in noise.items()} or None, "seconds": rep["timings_s"]["total"]}
 
 
 def _prepare_row(photo: RealPhoto, out_dir: Path) -> dict:
@@ -350,7 +354,10 @@ def summary(rows: list[dict], split: str | None = None) -> dict:
     ``pixel_p90`` (pixel colour difference p90 ≤ 12), ``pixel_sharpness`` (within 0.8–1.25),
     ``pixel_structure`` (≥ 0.6), ``not_washed`` (sharpness ≥ 0.5), ``neutral_colour`` (each
     family's colour under a neutral light within ΔE 10 of the photo's at equal lightness:
-    :func:`weavecap.fit.fidelity.neutral_light_delta_e`), and the median seconds."""
+    :func:`weavecap.fit.fidelity.neutral_light_delta_e`), ``noise_brightness`` (the capture
+    rendered with its §6.3 noise within 3 % of its brightness without) and ``noise_weave`` (the
+    median correlation of the two: :func:`weavecap.fit.fidelity.with_noise`), and the median
+    seconds."""
     if split is None:
         seen, rs = set(), []
         for r in rows:  # fabricnet/ comes first: a copy in images/ counts there
@@ -365,6 +372,7 @@ def summary(rows: list[dict], split: str | None = None) -> dict:
     scale = [r["photo_scale"] for r in rs if r["status"] == "ok" and r.get("photo_scale")]
     neutral = [[v for v in r["neutral_delta_e"].values() if v is not None]
                for r in rs if r["status"] == "ok" and r.get("neutral_delta_e")]
+    noises = [r["noise"] for r in rs if r["status"] == "ok" and r.get("noise")]
     return {
         "photos": len(rs),
         "fitted": _share([r["status"] == "ok" for r in fit_target]),
@@ -378,6 +386,8 @@ def summary(rows: list[dict], split: str | None = None) -> dict:
         "pixel_structure": _share([s["structure"] >= 0.6 for s in scale]),
         "not_washed": _share([s["sharpness"] >= 0.5 for s in scale]),
         "neutral_colour": _share([bool(v) and max(v) <= 10 for v in neutral]),
+        "noise_brightness": _share([abs(n["brightness"] - 1) <= 0.03 for n in noises]),
+        "noise_weave": statistics.median([n["weave"] for n in noises]) if noises else float("nan"),
         "median_s": statistics.median(secs) if secs else float("nan"),
     }
 
@@ -397,10 +407,12 @@ def summary_table(rows: list[dict]) -> str:
         out.append(f"| {name} | {s['photos']} | {_frac(s['fitted'])} | {_frac(s['rejected'])} | {_frac(s['family'])} | "
                    f"{_frac(s['density'])} | {_frac(s['views'])} | {s['median_s']:.1f} |")
     out += ["", "| split | pixel colour p90 ≤ 12 (≥ 85 %) | sharpness 0.8–1.25 (≥ 85 %) | structure ≥ 0.6 (≥ 85 %) | "
-            "sharpness ≥ 0.5 (all) | colour under a neutral light within ΔE 10 |", "|" + "---|" * 6]
+            "sharpness ≥ 0.5 (all) | colour under a neutral light within ΔE 10 | with its noise: brightness within "
+            "3 % | with its noise: weave correlation, median |", "|" + "---|" * 8]
     for name, s in parts:
         out.append(f"| {name} | {_frac(s['pixel_p90'])} | {_frac(s['pixel_sharpness'])} | "
-                   f"{_frac(s['pixel_structure'])} | {_frac(s['not_washed'])} | {_frac(s['neutral_colour'])} |")
+                   f"{_frac(s['pixel_structure'])} | {_frac(s['not_washed'])} | {_frac(s['neutral_colour'])} | "
+                   f"{_frac(s['noise_brightness'])} | {s['noise_weave']:.2f} |")
     return "\n".join(out)
 
 

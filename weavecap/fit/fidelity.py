@@ -235,6 +235,24 @@ def neutral_light_delta_e(fabric, lab: dict) -> dict[str, float]:
             for fam in ("warp", "weft")}
 
 
+def with_noise(fabric, *, rig: str, repeats: int = 4, size: int = 256, seed: int = 0) -> dict[str, float]:
+    """What the §6.3 noise does to a render of the captured ``fabric``: ``repeats`` × ``repeats``
+    repeats, ``size`` pixels a side, under ``rig``, with its noise (as ``synth`` and ``render``
+    show it by default, :func:`weavecap.noise.add_noise`) against without. ``brightness``: the
+    mean's ratio (a noise that clips at black brightens); ``weave``: the correlation of the two
+    luminance images (1: no grain; near 0: the weave lost in it). Empty without noise."""
+    from ..model.render import render_numpy
+    from ..model.scene import View, build_scene, light_rig
+    from ..noise import add_noise
+
+    if not fabric.noise or not fabric.noise.get("gaussians"):
+        return {}
+    clean = render_numpy(build_scene(fabric, View(tiles=(repeats, repeats), size=size, spp=4), light=light_rig(rig)))
+    noisy = add_noise(clean, fabric.noise, pitch_px=size / (repeats * max(fabric.shape)), seed=seed)
+    return {"brightness": float(noisy.mean() / max(float(clean.mean()), 1e-12)),
+            "weave": luminance_correlation(clean, noisy)}
+
+
 def fidelity(photo: np.ndarray, render: np.ndarray, pattern: np.ndarray, *, centre_share: float = 0.5,
              shot: np.ndarray | None = None) -> Fidelity:
     """The fidelity figures of ``render`` against ``photo``.

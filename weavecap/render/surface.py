@@ -131,34 +131,27 @@ class NoiseMap:
     """The §6.3 irregularity of a fabric as a brightness gain tiled over ``repeats`` repeats.
 
     ``gain`` is (H, W) float32 ≥ 0 over ``repeats × repeats`` repeats (same UV convention,
-    ``[0, 1]²`` per repeat, so one tile covers ``[0, repeats]²``); 1 is the model's own
-    brightness. ``synth`` adds the noise to the rendered image; here it multiplies the BSDF by
-    ``1 + noise / level``, ``level`` the fabric's mean brightness under the capture rig, which
-    is the same thing where the brightness is that mean.
+    ``[0, 1]²`` per repeat, so one tile covers ``[0, repeats]²``): one plus the synthesized
+    noise, which is relative brightness (:func:`weavecap.noise.irregularity`), so the BSDF is
+    multiplied by it as ``synth`` multiplies its image (:func:`weavecap.noise.add_noise`).
     """
 
     gain: np.ndarray
     repeats: int
-    level: float
 
 
 def noise_map(fabric: Fabric, *, texels_per_yarn: int = NOISE_TEXELS_PER_YARN, seed: int = 0) -> NoiseMap | None:
     """The fabric's §6.3 noise (``params.noise``) synthesized over a few repeats, or None
-    when it has none. ``level`` is measured: the mean of a forward-model render of one repeat
-    under the capture rig ``both`` (what the fit compared with)."""
+    when it has none."""
     if not fabric.noise or not fabric.noise.get("gaussians"):
         return None
-    from ..model.render import render_numpy
-    from ..model.scene import View, build_scene
     from ..noise import synthesize  # (after the test: importing it takes seconds)
 
     n_e, n_a = fabric.shape
     t = int(texels_per_yarn)
     repeats = int(max(1, min(NOISE_REPEATS, NOISE_MAX_TEXELS // (max(n_e, n_a) * t))))
     tile = synthesize(fabric.noise, (n_e * repeats * t, n_a * repeats * t), pitch_px=float(t), seed=seed)
-    level = float(np.mean(render_numpy(build_scene(fabric, View(tiles=(1, 1), size=64, spp=1)))))
-    gain = np.clip(1.0 + tile / max(level, 1e-3), 0.0, None).astype(np.float32)
-    return NoiseMap(gain=gain, repeats=repeats, level=level)
+    return NoiseMap(gain=np.clip(1.0 + tile, 0.0, None).astype(np.float32), repeats=repeats)
 
 
 def texels_for(pattern_shape: tuple[int, int], requested: int = TEXELS_PER_YARN) -> int:
