@@ -73,17 +73,11 @@ def irregularity(photo: np.ndarray, render: np.ndarray, *, cell_px: int, repeat:
     r = relative(photo) - relative(render)
     if r.size == 0 or not np.any(np.asarray(photo) > 0):
         return np.zeros(r.shape)
-    rows, cols = r.shape[0] // c, r.shape[1] // c
-    blocks = r[:rows * c, :cols * c].reshape(rows, c, cols, c).transpose(0, 2, 1, 3).reshape(rows * cols, c, c)
-    i = (np.arange(rows)[:, None] + first[0]) % n_e
-    j = (np.arange(cols)[None, :] + first[1]) % n_a
-    which = np.broadcast_to(i * n_a + j, (rows, cols)).ravel()
-    count = np.bincount(which, minlength=n_e * n_a).astype(np.float64)[which][:, None, None]
-    total = np.zeros((n_e * n_a, c, c))
-    np.add.at(total, which, blocks)
-    blocks = np.where(count >= 2, (blocks - total[which] / count) * np.sqrt(count / np.maximum(count - 1, 1)), blocks)
+    from .fit.photo_view import repeat_deviation
+
+    deviation, seen = repeat_deviation(r, c, (n_e, n_a), first)
     out = r.copy()
-    out[:rows * c, :cols * c] = blocks.reshape(rows, cols, c, c).transpose(0, 2, 1, 3).reshape(rows * c, cols * c)
+    out[:seen.shape[0], :seen.shape[1]] = np.where(seen, deviation, r[:seen.shape[0], :seen.shape[1]])
     return out
 
 

@@ -371,8 +371,8 @@ def finish(start: Start, planned: Plan, fitted: RegisteredFit, options: CaptureO
     photo_canvas = cell_canvas(start.prepared.rectification.image, fitted.cells, c)
     at_scale = at_photo_scale(start.coloured.rectification.image, fitted, result.fabric, c=c, spp=spp)
     view = at_scale.view
-    noise = fit_noise(irregularity(view.canvas, at_scale.render, cell_px=view.c, repeat=view.shape, first=view.first),
-                      pitch_px=float(view.c), seed=options.seed)
+    noise = fit_noise(irregularity(view.canvas, at_scale.render, cell_px=view.c, repeat=at_scale.fabric.full_repeat,
+                                   first=view.first), pitch_px=float(view.c), seed=options.seed)
     if noise["gaussians"]:
         at_scale = dataclasses.replace(at_scale, fabric=dataclasses.replace(at_scale.fabric, noise=noise))
     errors = standard_errors(result.fabric, target, blur_px=blur_px, light=fitted.rig, spp=spp, fixed=planned.fixed,

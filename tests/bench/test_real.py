@@ -78,7 +78,7 @@ def _row(set_, photo, split, expect, status, weave=None, pattern=None, family=No
 def test_summary_counts_the_done_when_figures_per_split():
     rows = [
         _row("fabricnet", "a.jpg", "dev", "fit", "ok", "plain", PLAIN, "plain", "fabricnet:1", (10.0, 20.0), (30, 15),
-             photo_scale={"colour_p90": 8.0, "sharpness": 0.9, "structure": 0.7}, neutral={"warp": 2.0, "weft": 9.9},
+             photo_scale={"colour_p90": 8.0, "sharpness": 0.9, "structure": 0.7, "structure_ceiling": 0.8}, neutral={"warp": 2.0, "weft": 9.9},
              noise={"brightness": 1.01, "weave": 0.8}),
         _row("fabricnet", "b.jpg", "dev", "fit", "ok", "twill 2/2 Z", TWILL_22_Z, "plain", "fabricnet:1",
              (10.0, 10.0), (30, 15), photo_scale={"colour_p90": 14.0, "sharpness": 0.45, "structure": 0.5},
@@ -94,6 +94,7 @@ def test_summary_counts_the_done_when_figures_per_split():
     assert dev["density"] == (1, 2)  # ratio 2 against 2 (right), 1 against 2 (50 % off)
     assert dev["views"] == (0, 1)  # fabric 1: plain and twill
     assert dev["pixel_p90"] == (1, 2) and dev["pixel_sharpness"] == (1, 2) and dev["pixel_structure"] == (1, 2)
+    assert dev["structure_reachable"] == (1, 2)  # b's ceiling unmeasured: not counted reachable
     assert dev["not_washed"] == (1, 2)  # the twill's render at sharpness 0.45 is washed out
     assert dev["neutral_colour"] == (2, 2)  # a family the pattern never shows does not count
     rows[1]["neutral_delta_e"]["warp"] = 10.5

@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from scipy.ndimage import gaussian_filter
 
-from weavecap.fit.fidelity import captioned, family_masks, fidelity
+from weavecap.fit.fidelity import captioned, family_masks, fidelity, luminance_correlation, structure_ceiling
 
 C = 16
 TWILL = np.array([[1, 1, 0], [0, 1, 1], [1, 0, 1]], np.uint8)
@@ -246,3 +247,26 @@ def test_a_colour_the_light_took_is_seen_under_a_neutral_light():
     assert max(good.values()) < 0.05, good
     assert min(bad.values()) > 10, bad  # beyond a faithful capture's ΔE 10 (measured 11.8: the
     # fixture's white highlights are in both)
+
+
+def test_the_structure_ceiling_is_the_share_of_the_photo_that_repeats():
+    """A photo of 6 × 5 repeats of a 2 × 3 weave at 8 px a cell: a periodic pattern of variance
+    s² plus an irregularity of variance n². No render repeating with the weave correlates with
+    it better than √(s² / (s² + n²)) — its own mean over the repeats comes closest — and the
+    ceiling says so; a periodic photo's is 1, pure noise's about 0 (with 2 views of a cell the
+    in-sample mean alone would claim 0.71)."""
+    c, repeat, times = 8, (2, 3), (6, 5)
+    rng = np.random.default_rng(0)
+    tile = rng.standard_normal((repeat[0] * c, repeat[1] * c))
+    periodic = np.tile(tile, times)
+    for n in (0.0, 0.5, 1.0, 2.0):
+        photo = (0.5 + 0.05 * (periodic + n * rng.standard_normal(periodic.shape)))[..., None].repeat(3, axis=2)
+        truth = 1.0 / np.sqrt(1.0 + n * n)
+        ceiling = structure_ceiling(photo, c, repeat)
+        assert ceiling == pytest.approx(truth, abs=0.03), (n, ceiling, truth)
+        mean = np.tile(photo.reshape(times[0], repeat[0] * c, times[1], repeat[1] * c, 3).mean(axis=(0, 2)),
+                       (*times, 1))
+        assert luminance_correlation(photo, mean) <= ceiling + 0.05
+    noise = 0.5 + 0.05 * rng.standard_normal((2 * repeat[0] * c, 2 * repeat[1] * c))[..., None].repeat(3, axis=2)
+    assert structure_ceiling(noise, c, repeat) < 0.25
+    assert np.isnan(structure_ceiling(noise[:c, :c], c, repeat))  # no cell seen twice

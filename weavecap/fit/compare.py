@@ -12,6 +12,7 @@ difference, the median repeat beside them, the figures below) are made from them
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -103,7 +104,8 @@ def at_photo_scale(image: np.ndarray, fitted, fabric: Fabric, *, c: int, spp: in
     (:class:`weavecap.fit.rounds.RegisteredFit`, cells in ``image`` pixels), the thread
     colours it shows (:func:`weavecap.fit.threads.capture_threads`), ``fabric`` with them
     rendered over it under the fitted rig, and the pixel figures
-    (:func:`weavecap.fit.fidelity.pixel_fidelity`).
+    (:func:`weavecap.fit.fidelity.pixel_fidelity`) with the highest structure a capture that
+    repeats as this one does could reach on the view (:func:`weavecap.fit.fidelity.structure_ceiling`).
 
     The render is shown with the camera's blur measured on the view itself
     (:func:`weavecap.fit.target.photo_blur`, held to 0.9 of the photo's sharpness as the
@@ -111,7 +113,7 @@ def at_photo_scale(image: np.ndarray, fitted, fabric: Fabric, *, c: int, spp: in
     repeat, smoother than any one repeat of the photo — a synthetic check fitted at 5.7 ΔE p90
     showed half the photo's sharpness with it. The thread colours are solved with the fit's
     blur scaled to the view (they are read at the yarns' centres, which a blur hardly moves)."""
-    from .fidelity import pixel_fidelity
+    from .fidelity import pixel_fidelity, structure_ceiling
     from .threads import capture_threads
 
     from ..model.render import render_numpy
@@ -123,5 +125,6 @@ def at_photo_scale(image: np.ndarray, fitted, fabric: Fabric, *, c: int, spp: in
     sharp = render_numpy(fs)
     blur_px, _ = photo_blur(shown(fs, view, 0.0, sharp), view.canvas, view.c)
     render = shown(fs, view, blur_px, sharp)
-    return PhotoScale(fabric=fabric, threads=threads, view=view, render=render,
-                      figures=pixel_fidelity(view.canvas, render, view.c), blur_px=blur_px)
+    figures = dataclasses.replace(pixel_fidelity(view.canvas, render, view.c),
+                                  structure_ceiling=structure_ceiling(view.canvas, view.c, fabric.full_repeat, view.first))
+    return PhotoScale(fabric=fabric, threads=threads, view=view, render=render, figures=figures, blur_px=blur_px)

@@ -101,6 +101,8 @@ class PixelFidelity:
     sharpness : render's gradient energy / photo's
     structure : Pearson correlation of the luminances
     blur_px : σ of the light blur both were compared after for the colour figures, pixels
+    structure_ceiling : the structure a capture that repeats as the fabric does could reach at
+        most on this photo (:func:`structure_ceiling`; NaN where not measured)
     """
 
     colour_p90: float
@@ -108,17 +110,20 @@ class PixelFidelity:
     sharpness: float
     structure: float
     blur_px: float
+    structure_ceiling: float = float("nan")
 
     def to_json(self) -> dict:
         def num(v, nd=3):
             return round(float(v), nd) if np.isfinite(v) else None
 
         return {"colour_p90": num(self.colour_p90, 2), "colour_median": num(self.colour_median, 2),
-                "sharpness": num(self.sharpness), "structure": num(self.structure, 4), "blur_px": num(self.blur_px)}
+                "sharpness": num(self.sharpness), "structure": num(self.structure, 4), "blur_px": num(self.blur_px),
+                "structure_ceiling": num(self.structure_ceiling, 4)}
 
     def caption(self) -> str:
+        ceiling = f" (at most {self.structure_ceiling:.2f})" if np.isfinite(self.structure_ceiling) else ""
         return (f"pixel dE2000 p90 {self.colour_p90:.1f} (median {self.colour_median:.1f})  "
-                f"sharpness {self.sharpness:.2f}  structure {self.structure:.2f}")
+                f"sharpness {self.sharpness:.2f}  structure {self.structure:.2f}{ceiling}")
 
 
 def pixel_fidelity(photo: np.ndarray, render: np.ndarray, pitch_px: float, *,
@@ -143,6 +148,28 @@ def pixel_fidelity(photo: np.ndarray, render: np.ndarray, pitch_px: float, *,
     return PixelFidelity(colour_p90=float(np.percentile(de, COLOUR_PERCENTILE)), colour_median=float(np.median(de)),
                          sharpness=gradient_energy(render, wrap=False) / e_photo if e_photo > 0 else float("nan"),
                          structure=luminance_correlation(photo, render), blur_px=sigma)
+
+
+def structure_ceiling(photo: np.ndarray, cell_px: int, repeat: tuple[int, int],
+                      first: tuple[int, int] = (0, 0)) -> float:
+    """The highest structure (:func:`luminance_correlation`) that any render repeating every
+    ``repeat`` = (n_e, n_a) cells can reach against ``photo`` ((Y·c, X·c, 3) linear, whole cells
+    of ``cell_px``, its first cell the repeat's cell ``first``): √(1 − irregular / total), the
+    share of the photo's luminance variance that repeats with it — the best such render is the
+    photo's mean over its repeats. Over the cells seen at least twice; the irregular variance
+    from the deviations from those means (:func:`weavecap.fit.photo_view.repeat_deviation`,
+    unbiased), so a photo of pure noise scores about 0 however few its repeats. NaN where no
+    cell is seen twice or the photo is flat."""
+    from .photo_view import repeat_deviation
+
+    lum = luminance(photo)
+    deviation, seen = repeat_deviation(lum, cell_px, repeat, first)
+    if not seen.any():
+        return float("nan")
+    total = float(np.var(lum[:seen.shape[0], :seen.shape[1]][seen]))
+    if total <= 0:
+        return float("nan")
+    return float(np.sqrt(max(0.0, 1.0 - float(np.mean(deviation[seen] ** 2)) / total)))
 
 
 def luminance_correlation(a: np.ndarray, b: np.ndarray) -> float:
