@@ -94,7 +94,7 @@ def test_summary_counts_the_done_when_figures_per_split():
     assert dev["density"] == (1, 2)  # ratio 2 against 2 (right), 1 against 2 (50 % off)
     assert dev["views"] == (0, 1)  # fabric 1: plain and twill
     assert dev["pixel_p90"] == (1, 2) and dev["pixel_sharpness"] == (1, 2) and dev["pixel_structure"] == (1, 2)
-    assert dev["structure_reachable"] == (1, 2)  # b's ceiling unmeasured: not counted reachable
+    assert dev["structure_reachable"] == (1, 1)  # b's view held no repeat twice: its ceiling is not counted
     assert dev["not_washed"] == (1, 2)  # the twill's render at sharpness 0.45 is washed out
     assert dev["neutral_colour"] == (2, 2)  # a family the pattern never shows does not count
     rows[1]["neutral_delta_e"]["warp"] = 10.5

@@ -352,8 +352,9 @@ def summary(rows: list[dict], split: str | None = None) -> dict:
     photos with the ratio within 15 %, of all of them), ``views`` (fabrics whose views agree),
     the photo-scale figures of the fitted photos (:func:`weavecap.fit.compare.at_photo_scale`):
     ``pixel_p90`` (pixel colour difference p90 ≤ 12), ``pixel_sharpness`` (within 0.8–1.25),
-    ``pixel_structure`` (≥ 0.6), ``structure_reachable`` (the photo's structure ceiling ≥ 0.6:
-    :func:`weavecap.fit.fidelity.structure_ceiling`), ``not_washed`` (sharpness ≥ 0.5), ``neutral_colour`` (each
+    ``pixel_structure`` (≥ 0.6), ``structure_reachable`` (the photo's structure ceiling ≥ 0.6, of
+    the photos whose view holds a repeat twice: :func:`weavecap.fit.fidelity.structure_ceiling`),
+    ``not_washed`` (sharpness ≥ 0.5), ``neutral_colour`` (each
     family's colour under a neutral light within ΔE 10 of the photo's at equal lightness:
     :func:`weavecap.fit.fidelity.neutral_light_delta_e`), ``noise_brightness`` (the capture
     rendered with its §6.3 noise within 3 % of its brightness without) and ``noise_weave`` (the
@@ -385,7 +386,8 @@ def summary(rows: list[dict], split: str | None = None) -> dict:
         "pixel_p90": _share([s["colour_p90"] <= 12 for s in scale]),
         "pixel_sharpness": _share([0.8 <= s["sharpness"] <= 1.25 for s in scale]),
         "pixel_structure": _share([s["structure"] >= 0.6 for s in scale]),
-        "structure_reachable": _share([(s.get("structure_ceiling") or 0.0) >= 0.6 for s in scale]),
+        "structure_reachable": _share([s["structure_ceiling"] >= 0.6 for s in scale
+                                       if s.get("structure_ceiling") is not None]),
         "not_washed": _share([s["sharpness"] >= 0.5 for s in scale]),
         "neutral_colour": _share([bool(v) and max(v) <= 10 for v in neutral]),
         "noise_brightness": _share([abs(n["brightness"] - 1) <= 0.03 for n in noises]),
@@ -409,7 +411,7 @@ def summary_table(rows: list[dict]) -> str:
         out.append(f"| {name} | {s['photos']} | {_frac(s['fitted'])} | {_frac(s['rejected'])} | {_frac(s['family'])} | "
                    f"{_frac(s['density'])} | {_frac(s['views'])} | {s['median_s']:.1f} |")
     out += ["", "| split | pixel colour p90 ≤ 12 (≥ 85 %) | sharpness 0.8–1.25 (≥ 85 %) | structure ≥ 0.6 (≥ 85 %) | "
-            "photos where a periodic capture can reach structure 0.6 | sharpness ≥ 0.5 (all) | colour under a neutral light within ΔE 10 | with its noise: brightness within "
+            "photos where a capture can reach structure 0.6 (of those measured) | sharpness ≥ 0.5 (all) | colour under a neutral light within ΔE 10 | with its noise: brightness within "
             "3 % | with its noise: weave correlation, median |", "|" + "---|" * 9]
     for name, s in parts:
         out.append(f"| {name} | {_frac(s['pixel_p90'])} | {_frac(s['pixel_sharpness'])} | "
