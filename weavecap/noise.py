@@ -73,7 +73,7 @@ def irregularity(photo: np.ndarray, render: np.ndarray, *, cell_px: int, repeat:
     r = relative(photo) - relative(render)
     if r.size == 0 or not np.any(np.asarray(photo) > 0):
         return np.zeros(r.shape)
-    from .fit.photo_view import repeat_deviation
+    from .estimate.cells import repeat_deviation
 
     deviation, seen = repeat_deviation(r, c, (n_e, n_a), first)
     out = r.copy()

@@ -157,10 +157,10 @@ def structure_ceiling(photo: np.ndarray, cell_px: int, repeat: tuple[int, int],
     of ``cell_px``, its first cell the repeat's cell ``first``): √(1 − irregular / total), the
     share of the photo's luminance variance that repeats with it — the best such render is the
     photo's mean over its repeats. Over the cells seen at least twice; the irregular variance
-    from the deviations from those means (:func:`weavecap.fit.photo_view.repeat_deviation`,
+    from the deviations from those means (:func:`weavecap.estimate.cells.repeat_deviation`,
     unbiased), so a photo of pure noise scores about 0 however few its repeats. NaN where no
     cell is seen twice or the photo is flat."""
-    from .photo_view import repeat_deviation
+    from ..estimate.cells import repeat_deviation
 
     lum = luminance(photo)
     deviation, seen = repeat_deviation(lum, cell_px, repeat, first)

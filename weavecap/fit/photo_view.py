@@ -55,33 +55,6 @@ class PhotoView:
         return self.canvas.shape[0] // self.c, self.canvas.shape[1] // self.c
 
 
-def repeat_deviation(image: np.ndarray, cell_px: int, repeat: tuple[int, int],
-                     first: tuple[int, int] = (0, 0)) -> tuple[np.ndarray, np.ndarray]:
-    """What of ``image`` differs between the repeats in view: (deviation, seen).
-
-    ``image`` is (Y·c, X·c) or (Y·c, X·c, C) over whole cells of ``cell_px`` pixels, its cell
-    (v, u) showing the repeat's cell ((v + v0) mod n_e, (u + u0) mod n_a) of ``repeat`` =
-    (n_e, n_a) and ``first`` = (v0, u0). The deviation is each pixel less its mean over the
-    views of its repeat cell, times √(k / (k − 1)) for k views (so that its variance estimates
-    the variance about the true mean, as a sample's does); ``seen`` (Y·c, X·c) is where a cell
-    is seen at least twice (elsewhere the deviation is 0: one view has no mean to differ from).
-    """
-    c = int(cell_px)
-    n_e, n_a = (int(v) for v in repeat)
-    a = np.asarray(image, np.float64)
-    rows, cols = a.shape[0] // c, a.shape[1] // c
-    a = a[:rows * c, :cols * c]
-    blocks = a.reshape(rows, c, cols, c, -1).transpose(0, 2, 1, 3, 4).reshape(rows * cols, c, c, -1)
-    which = ((np.arange(rows)[:, None] + first[0]) % n_e * n_a + (np.arange(cols)[None, :] + first[1]) % n_a).ravel()
-    count = np.bincount(which, minlength=n_e * n_a).astype(np.float64)[which][:, None, None, None]
-    total = np.zeros((n_e * n_a, *blocks.shape[1:]))
-    np.add.at(total, which, blocks)
-    dev = np.where(count >= 2, (blocks - total[which] / count) * np.sqrt(count / np.maximum(count - 1, 1)), 0.0)
-    dev = dev.reshape(rows, cols, c, c, -1).transpose(0, 2, 1, 3, 4).reshape(a.shape[0], a.shape[1], -1)
-    seen = np.broadcast_to(count[:, 0, 0, 0] >= 2, (rows * cols,)).reshape(rows, cols).repeat(c, 0).repeat(c, 1)
-    return dev.reshape(a.shape), seen
-
-
 def view_cell_px(cells: CellGrid) -> tuple[int, float]:
     """(c, pitch): the cell side of a view of the photo whose repeat has ``cells``: its mean
     pitch (geometric mean of both directions) rounded, within [MIN_CELL_PX, MAX_CELL_PX]."""

@@ -171,62 +171,32 @@ def lattice_drift(blocks: np.ndarray, model: np.ndarray, c: int):
     residue of a homography). Fitted by least squares to each repeat's
     :func:`correlation_shift`, twice, the second time without repeats more than 3 MADs (at
     least a tenth of a pixel) off the first fit; repeats further than DRIFT_MAX_CELLS off are
-    mismatches (a flaw, an occluded repeat) and never used. A field that describes fewer than
-    half the repeats (their shifts within the refit's tolerance of it) is no drift of the
-    photo's lattice: the affine model is tried in the quadratic's place, and if that describes
-    fewer too, the field is zero. (A plain weave's repeats, measured half a cell either way,
-    left six of twenty for a quadratic through them that moved the others by up to 4 cells: KTH
-    44a's view of the photo came out swirled.)
+    mismatches (a flaw, an occluded repeat) and never used.
     """
     ky, kx, h, w = blocks.shape
     shifts = correlation_shift(blocks, model).reshape(-1, 2)
     yy, xx = np.meshgrid(np.arange(ky) + 0.5, np.arange(kx) + 0.5, indexing="ij")
-    keep = np.all(np.abs(shifts) <= DRIFT_MAX_CELLS * c, axis=1)
-    for quadratic in ((True, False) if ky * kx >= QUADRATIC_BLOCKS else (False,)):
-        terms = _drift_terms(quadratic)
-        fitted, described = _fit_drift(terms(yy, xx), shifts, keep)
-        if 2 * described >= ky * kx:
-            coef = fitted
-            break
-    else:  # no model of the drift that the measurements support: none followed
-        coef, terms = np.zeros((3, 2)), _drift_terms(False)
+    quadratic = ky * kx >= QUADRATIC_BLOCKS
 
-    def field(y, x) -> np.ndarray:  # term by term, each at its own shape: a whole canvas's (pixels, terms) is ~50 MB
-        return _drift_at(terms(y, x), coef)
-
-    return field
-
-
-def _drift_terms(quadratic: bool):
-    """The drift model's terms of (y, x) in repeats, broadcasting y against x: affine, and with
-    ``quadratic`` the quadratic ones."""
-    def terms(y, x) -> list:
+    def terms(y, x) -> list:  # the field's terms, broadcasting y against x
         y, x = np.asarray(y, float), np.asarray(x, float)
         return [np.ones(()), y, x] + ([y * y, y * x, x * x] if quadratic else [])
-    return terms
 
+    a = np.stack([np.broadcast_to(t, yy.shape).ravel() for t in terms(yy, xx)], axis=1)
+    keep = np.all(np.abs(shifts) <= DRIFT_MAX_CELLS * c, axis=1)
+    coef = np.zeros((a.shape[1], 2))
+    if keep.sum() >= a.shape[1]:
+        coef = np.linalg.lstsq(a[keep], shifts[keep], rcond=None)[0]
+        residual = np.linalg.norm(shifts - a @ coef, axis=1)
+        mad = np.median(residual[keep])
+        refit = keep & (residual <= max(3.0 * 1.4826 * mad, 0.1))
+        if refit.sum() >= a.shape[1]:
+            coef = np.linalg.lstsq(a[refit], shifts[refit], rcond=None)[0]
 
-def _drift_at(terms: list, coef: np.ndarray) -> np.ndarray:
-    """The field (..., 2) of the model ``terms`` with coefficients ``coef`` (terms, 2)."""
-    return sum(np.multiply.outer(t, k) for t, k in zip(terms, coef))
+    def field(y, x) -> np.ndarray:  # term by term, each at its own shape: a whole canvas's (pixels, terms) is ~50 MB
+        return sum(np.multiply.outer(t, k) for t, k in zip(terms(y, x), coef))
 
-
-def _fit_drift(terms: list, shifts: np.ndarray, keep: np.ndarray) -> tuple[np.ndarray | None, int]:
-    """Least-squares coefficients (terms, 2) of the drift model on the repeats' ``shifts``
-    (n, 2) that ``keep`` (n,) holds, fitted twice, the second time without the repeats more
-    than 3 MADs (at least a tenth of a pixel) off the first fit; and how many of all n repeats
-    the field then describes (within that of their shift). (None, 0) when fewer repeats than
-    terms are kept."""
-    a = np.stack([np.broadcast_to(t, terms[1].shape).ravel() for t in terms], axis=1)
-    if keep.sum() < a.shape[1]:
-        return None, 0
-    coef = np.linalg.lstsq(a[keep], shifts[keep], rcond=None)[0]
-    residual = np.linalg.norm(shifts - a @ coef, axis=1)
-    tolerance = max(3.0 * 1.4826 * float(np.median(residual[keep])), 0.1)
-    refit = keep & (residual <= tolerance)
-    if refit.sum() >= a.shape[1]:
-        coef = np.linalg.lstsq(a[refit], shifts[refit], rcond=None)[0]
-    return coef, int(np.sum(np.linalg.norm(shifts - a @ coef, axis=1) <= tolerance))
+    return field
 
 
 def mean_repeat(image: np.ndarray, cells: CellGrid, c: int, model: np.ndarray | None = None, *,
