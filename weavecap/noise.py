@@ -41,7 +41,8 @@ def irregularity(photo: np.ndarray, render: np.ndarray, *, cell_px: int, repeat:
         cells and the capture rendered over them as photographed
         (:class:`weavecap.fit.compare.PhotoScale`'s ``view.canvas`` and ``render``)
     cell_px : c, pixels a cell side
-    repeat : (n_e, n_a), the weave's repeat in cells
+    repeat : (n_e, n_a), the fabric's repeat in cells (its weave's, or with thread colours the
+        full one: :attr:`weavecap.params.Fabric.full_repeat`)
     first : (v0, u0), the repeat's cell that the canvas's first cell shows
 
     Returns

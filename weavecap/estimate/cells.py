@@ -238,5 +238,5 @@ def repeat_deviation(image: np.ndarray, cell_px: int, repeat: tuple[int, int],
     np.add.at(total, which, blocks)
     dev = np.where(count >= 2, (blocks - total[which] / count) * np.sqrt(count / np.maximum(count - 1, 1)), 0.0)
     dev = dev.reshape(rows, cols, c, c, -1).transpose(0, 2, 1, 3, 4).reshape(a.shape[0], a.shape[1], -1)
-    seen = np.broadcast_to(count[:, 0, 0, 0] >= 2, (rows * cols,)).reshape(rows, cols).repeat(c, 0).repeat(c, 1)
+    seen = (count[:, 0, 0, 0] >= 2).reshape(rows, cols).repeat(c, 0).repeat(c, 1)
     return dev.reshape(a.shape), seen
