@@ -129,3 +129,26 @@ def test_colour_period_of_yarn_sequences():
     stripe = np.array([NAVY] * 5 + [CREAM] * 3 + [NAVY] * 5 + [CREAM] * 3 + [NAVY] * 5 + [CREAM] * 3)
     n, colours = colour_period(stripe)
     assert n == 8 and np.allclose(sorted(colours[:, 0]), [NAVY[0]] * 5 + [CREAM[0]] * 3)
+
+
+def test_a_no_grid_rejection_names_the_test_that_failed():
+    """The sentence never says the lattice fits too little where it fits well: it names the
+    projection that has no period, and whichever of the lattice's tests failed with its figure
+    and bound (a satin's floats hide one axis; a lattice that fits but has no cell there)."""
+    from weavecap.prepare.lattice import Lattice
+    from weavecap.prepare.config import PrepareConfig
+    from weavecap.prepare.pipeline import no_grid_reason
+
+    config = PrepareConfig()
+    basis = np.array([[24.0, 19.0], [-24.0, 29.0]])
+    fits = Lattice(basis=basis, cell=(24.0, None), score=0.9, peaks=np.zeros((0, 3)))
+    weak = Lattice(basis=basis, cell=(24.0, 9.6), score=0.2, peaks=np.zeros((0, 3)))
+    pitches, strengths, periodic = [24.0, None], [0.6, 0.02], [True, False]
+    said = no_grid_reason(pitches, strengths, periodic, fits, config)
+    assert "across the wefts (periodicity 0.02, at least 0.2" in said and "across the warps" not in said.split("(")[0]
+    assert "fit 0.900" in said and "no cell along that axis" in said and "fits only" not in said
+    said = no_grid_reason(pitches, strengths, periodic, weak, config)
+    assert "fits only 0.200 (at least 0.35 needed)" in said
+    said = no_grid_reason([None, None], [0.05, 0.04], [False, False], fits, config)
+    assert "across the warps nor across the wefts (periodicity 0.04" in said and "lattice" not in said
+    assert "shifts" in no_grid_reason(pitches, strengths, periodic, None, config)

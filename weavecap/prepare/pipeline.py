@@ -380,6 +380,39 @@ def _on_cells(pitch: float | None, cell: float | None) -> bool:
     return k >= 1 and abs(pitch / cell - k) <= 0.1 * k
 
 
+def no_grid_reason(pitches: list, strengths: list, periodic: list[bool], lattice: Lattice | None,
+                   config: PrepareConfig) -> str:
+    """The sentence of a ``no_grid`` rejection: which test of a woven grid failed, with its
+    measure and its bound, and what to do.
+
+    A grid is woven when the projections across the warps and across the wefts (x, y) are both
+    periodic, or one is and the autocorrelation's lattice fits the photo (score at least
+    ``lattice_woven_score``) and has cells the other axis's period is a whole number of.
+    ``pitches``, ``strengths``, ``periodic``: per axis, the projection's period (px, None where
+    it has none), its periodicity and whether it counts as periodic."""
+    axes = ("across the warps", "across the wefts")
+    flat = [a for a, ok in zip(axes, periodic) if not ok]
+    weakest = min(strengths)
+    head = (f"no regular yarn grid: the yarn spacing is not periodic {' nor '.join(flat) or axes[0]} "
+            f"(periodicity {weakest:.2f}, at least {config.min_grid_strength} needed)")
+    if not any(periodic):
+        why = ""
+    elif lattice is None:
+        why = ", and the photo matches itself at no lattice of shifts that could place those yarns"
+    elif lattice.score < config.lattice_woven_score:
+        why = (f", and the lattice the photo best matches itself at fits only {lattice.score:.3f} "
+               f"(at least {config.lattice_woven_score} needed)")
+    else:
+        i = 0 if not periodic[0] else 1
+        cell = lattice.cell[i]
+        period = "no period" if pitches[i] is None else f"a period of {pitches[i]:.1f} px"
+        on = "it has no cell along that axis" if cell is None else f"its cell there is {cell:.1f} px"
+        why = (f", and the photo's lattice (fit {lattice.score:.3f}) does not place them: the projection "
+               f"{axes[i]} has {period}, {on}")
+    return (f"{head}{why}: this does not look like a woven fabric (knit, felt, straw, paper, noise?), "
+            "or its yarns are not sharp; take a sharper photo, closer")
+
+
 def _cells(r_img: np.ndarray, pitch_px: tuple[float, float], origin_px: tuple[float, float], p_guess: float,
            config: PrepareConfig) -> np.ndarray:
     """Features of the yarn-grid cells of the rectified photo's centre crop (at most
@@ -527,12 +560,7 @@ def _prepare(rgb: np.ndarray, config: PrepareConfig, *, repeat: tuple[int, int] 
                      and all(ok or _on_cells(p, c) for ok, p, c in zip(periodic, pitches, lattice.cell)))
     reject = None
     if any(p is None for p in pitches) or not (all(periodic) or woven_lattice):
-        score = 0.0 if lattice is None else lattice.score
-        reject = Rejected(f"no regular yarn grid: the yarn spacing is not periodic (periodicity {min(strengths):.2f} "
-                          f"across the yarns, at least {config.min_grid_strength} needed; no lattice of the photo "
-                          f"holds the other yarns: its fit scores {score:.3f}, at least {config.lattice_woven_score}): "
-                          "this does not look like a woven fabric (knit, felt, straw, paper, noise?), or its "
-                          "yarns are not sharp", "no_grid", checks, evidence)
+        reject = Rejected(no_grid_reason(pitches, strengths, periodic, lattice, config), "no_grid", checks, evidence)
     else:
         px, py = pitches
         in_px = (px / rect.scale, py / rect.scale)
