@@ -40,6 +40,24 @@ def colour_note(record: dict) -> str:
             f"colour{held}: a render will not match the photo")
 
 
+def weave_note(record: dict) -> str:
+    """A line for the fit's summary when the photo's cells did not settle the weave: the pattern
+    decision was not sure (``pre_estimation.decision.decided`` false: under
+    :data:`weavecap.estimate.decide.DECIDED_NATS` a cell for its weave over the best different
+    one), so the weave is what the fit's starts and checks settled on. On the 59 FabricNET photos
+    fitted at normal (docs/capture.md, *The pattern decision*) the family was right on 34 of the
+    35 decided and on 2 of the 22 undecided (HELD-OUT fabrics: 14 of 14, 0 of 12). No line where
+    the decision was sure, none was made (too few cells) or a pattern was given."""
+    from weavecap.estimate.decide import DECIDED_NATS
+
+    decision = (record.get("pre_estimation") or {}).get("decision") or {}
+    if not decision or decision.get("decided", True):
+        return ""
+    return (f"\n  note: the photo's cells did not settle the weave ({decision['evidence_nats_per_cell']:.2f} nats a "
+            f"cell for {decision['weave']}; {DECIDED_NATS} would decide it): {record['weave']} is the fit's best guess; "
+            "check compare.png, or give the weave with --pattern")
+
+
 def fitted(record: dict, folder) -> str:
     """A fitted photo: its weave, repeat, PSNR, sharpness, light rig(s), time and folder."""
     fit = record["fit"]
@@ -47,7 +65,8 @@ def fitted(record: dict, folder) -> str:
     light = fit["light"]["rig"] + (f" light ({rigs} rigs tried)" if rigs > 1 else " light")
     return (f"{record['weave']}, {record['grid']['yarns'][0]}x{record['grid']['yarns'][1]} repeat, PSNR "
             f"{fit['psnr_db']:.1f} dB, sharpness {fit['fidelity']['sharpness']}, {light}, "
-            f"{record['timings_s']['total']:.1f} s -> {folder}{clipping_note(record)}{colour_note(record)}")
+            f"{record['timings_s']['total']:.1f} s -> {folder}{weave_note(record)}{clipping_note(record)}"
+            f"{colour_note(record)}")
 
 
 def tell_mesh(tell, mesh: dict) -> None:

@@ -66,10 +66,11 @@ def test_views_agree_only_when_every_view_gave_the_same_weave():
 
 
 def _row(set_, photo, split, expect, status, weave=None, pattern=None, family=None, fabric=None, pitch=None,
-         density=None, sha=None, reason=None, photo_scale=None, neutral=None, noise=None):
+         density=None, sha=None, reason=None, photo_scale=None, neutral=None, noise=None, decided=None):
     r = real.RealPhoto(path=Path(photo), set=set_, family=family, density=density, fabric=fabric, split=split,
                        expect=expect, sha256=sha or photo)
     raw = {"status": status, "code": None if status == "ok" else "no_grid", "reason": reason, "weave": weave,
+           "decided": decided,
            "pattern": None if pattern is None else np.asarray(pattern).tolist(), "pitch_px": pitch, "yarns": None,
            "photo_scale": photo_scale, "neutral_delta_e": neutral, "noise": noise, "seconds": 10.0}
     return real.score(r, raw)
@@ -79,10 +80,10 @@ def test_summary_counts_the_done_when_figures_per_split():
     rows = [
         _row("fabricnet", "a.jpg", "dev", "fit", "ok", "plain", PLAIN, "plain", "fabricnet:1", (10.0, 20.0), (30, 15),
              photo_scale={"colour_p90": 8.0, "sharpness": 0.9, "structure": 0.7, "structure_ceiling": 0.8}, neutral={"warp": 2.0, "weft": 9.9},
-             noise={"brightness": 1.01, "weave": 0.8}),
+             noise={"brightness": 1.01, "weave": 0.8}, decided=True),
         _row("fabricnet", "b.jpg", "dev", "fit", "ok", "twill 2/2 Z", TWILL_22_Z, "plain", "fabricnet:1",
              (10.0, 10.0), (30, 15), photo_scale={"colour_p90": 14.0, "sharpness": 0.45, "structure": 0.5},
-             neutral={"warp": 3.0, "weft": None}, noise={"brightness": 1.5, "weave": 0.3}),
+             neutral={"warp": 3.0, "weft": None}, noise={"brightness": 1.5, "weave": 0.3}, decided=False),
         _row("fabricnet", "c.jpg", "held-out", "fit", "rejected", family="satin", fabric="fabricnet:2",
              density=(25, 50), reason="no grid"),
         _row("negative", "d.jpg", "dev", "reject", "rejected", reason="no regular yarn grid"),
@@ -91,6 +92,7 @@ def test_summary_counts_the_done_when_figures_per_split():
     dev, held, every = real.summary(rows, "dev"), real.summary(rows, "held-out"), real.summary(rows)
     assert dev["fitted"] == (3, 3) and dev["rejected"] == (1, 1)
     assert dev["family"] == (2, 3)  # the twill labelled plain is wrong
+    assert dev["family_decided"] == (1, 1) and dev["family_undecided"] == (0, 1)  # the copy made no decision
     assert dev["density"] == (1, 2)  # ratio 2 against 2 (right), 1 against 2 (50 % off)
     assert dev["views"] == (0, 1)  # fabric 1: plain and twill
     assert dev["pixel_p90"] == (1, 2) and dev["pixel_sharpness"] == (1, 2) and dev["pixel_structure"] == (1, 2)
@@ -104,6 +106,7 @@ def test_summary_counts_the_done_when_figures_per_split():
     assert every["photos"] == 4  # the copy of a.jpg counts once
     table = real.summary_table(rows)
     assert "| DEV |" in table and "| HELD-OUT |" in table and "| all |" in table
+    assert "| 1/1 (100%) / 0/1 (0%) |" in table
 
 
 REALDATA = real.find_realdata()

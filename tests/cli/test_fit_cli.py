@@ -162,6 +162,22 @@ def test_the_fits_line_says_when_the_fabric_lacks_the_photos_colour_under_a_neut
     assert colour_note(record({"warp": None, "weft": None})) == "" and colour_note({"fit": {"fidelity": {}}}) == ""
 
 
+def test_the_fits_line_says_when_the_photos_cells_did_not_settle_the_weave():
+    """An undecided pattern decision (``pre_estimation.decision.decided`` false) gives a line with
+    its evidence, the weave it spoke for and what to do; a sure one, none, or none made, nothing."""
+    from weavecap.cli.lines import weave_note
+
+    def record(decided, evidence=0.034):
+        return {"weave": "twill 7/1 Z", "pre_estimation": {"decision": {
+            "weave": "satin 8/3 warp-faced", "evidence_nats_per_cell": evidence, "decided": decided}}}
+
+    note = weave_note(record(False))
+    assert "0.03 nats a cell for satin 8/3 warp-faced; 0.4 would decide it" in note
+    assert "twill 7/1 Z is the fit's best guess" in note and "--pattern" in note
+    assert weave_note(record(True, 0.9)) == ""
+    assert weave_note({"weave": "plain", "pre_estimation": {}}) == "" and weave_note({"weave": "plain"}) == ""
+
+
 def _pattern_file(path: Path, pattern: np.ndarray) -> Path:
     path.write_text("\n".join(" ".join(map(str, row)) for row in pattern) + "\n")
     return path

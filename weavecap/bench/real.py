@@ -247,7 +247,9 @@ def _fit_row(photo: RealPhoto, out_dir: Path, quality: str) -> dict:
     fit = rep.get("fit", {}) if cap.status == "ok" else {}
     fid = fit.get("fidelity") or {}
     noise = with_noise(cap.fabric, rig=fit["light"]["rig"]) if cap.status == "ok" else {}
+    decision = (rep.get("pre_estimation") or {}).get("decision") or {}
     return {"status": cap.status, "code": rep.get("code"), "reason": rep.get("reason"), "weave": rep.get("weave"),
+            "decided": decision.get("decided"),
             "pattern": None if cap.fabric is None else np.asarray(cap.fabric.pattern).tolist(),
             "pitch_px": rep["grid"]["pitch_px"] if cap.status == "ok" else None,
             "yarns": rep["grid"]["yarns"] if cap.status == "ok" else None,
@@ -348,7 +350,9 @@ def summary(rows: list[dict], split: str | None = None) -> dict:
 
     Returns counts ``(hits, of)``: ``fitted`` (woven, resolvable photos of
     :data:`FITTED_TARGET_SETS` fitted), ``rejected`` (negatives and sub-Nyquist crops
-    rejected), ``family`` (family right of the labelled, fitted photos), ``density`` (fabricnet
+    rejected), ``family`` (family right of the labelled, fitted photos), ``family_decided`` and
+    ``family_undecided`` (the same where the pattern decision was sure, and where it was not:
+    what the fit's note on an undecided weave rests on), ``density`` (fabricnet
     photos with the ratio within 15 %, of all of them), ``views`` (fabrics whose views agree),
     the photo-scale figures of the fitted photos (:func:`weavecap.fit.compare.at_photo_scale`):
     ``pixel_p90`` (pixel colour difference p90 ≤ 12), ``pixel_sharpness`` (within 0.8–1.25),
@@ -380,6 +384,8 @@ def summary(rows: list[dict], split: str | None = None) -> dict:
         "fitted": _share([r["status"] == "ok" for r in fit_target]),
         "rejected": _share([r["status"] == "rejected" and bool(r["reason"]) for r in rs if r["expect"] == "reject"]),
         "family": _share([r["family_right"] for r in rs if r["family_right"] is not None]),
+        **{f"family_{k}": _share([r["family_right"] for r in rs if r["family_right"] is not None
+                                  and r.get("decided") is v]) for k, v in (("decided", True), ("undecided", False))},
         "density": _share([r["density_error"] is not None and abs(r["density_error"]) <= 0.15
                            for r in rs if r["set"] == "fabricnet"]),
         "views": _share(list(agree.values())),
@@ -405,10 +411,12 @@ def summary_table(rows: list[dict]) -> str:
     """The Done-when figures for DEV, HELD-OUT and all photos (markdown)."""
     parts = [("DEV", summary(rows, "dev")), ("HELD-OUT", summary(rows, "held-out")), ("all", summary(rows))]
     out = ["| split | photos | woven resolvable fitted (≥ 95 %) | negatives + sub-Nyquist rejected (all) | "
-           "family right of labelled fitted (≥ 90 %) | fabricnet density ratio within 15 % (≥ 85 %) | "
-           "fabrics whose views agree (≥ 85 %) | median s |", "|" + "---|" * 8]
+           "family right of labelled fitted (≥ 90 %) | "
+           "family right where the cells settled the weave / did not | fabricnet density ratio within 15 % (≥ 85 %) | "
+           "fabrics whose views agree (≥ 85 %) | median s |", "|" + "---|" * 9]
     for name, s in parts:
         out.append(f"| {name} | {s['photos']} | {_frac(s['fitted'])} | {_frac(s['rejected'])} | {_frac(s['family'])} | "
+                   f"{_frac(s['family_decided'])} / {_frac(s['family_undecided'])} | "
                    f"{_frac(s['density'])} | {_frac(s['views'])} | {s['median_s']:.1f} |")
     out += ["", "| split | pixel colour p90 ≤ 12 (≥ 85 %) | sharpness 0.8–1.25 (≥ 85 %) | structure ≥ 0.6 (≥ 85 %) | "
             "photos where a capture can reach structure 0.6 (of those measured) | sharpness ≥ 0.5 (all) | colour under a neutral light within ΔE 10 | with its noise: brightness within "
