@@ -152,3 +152,6 @@ def test_a_no_grid_rejection_names_the_test_that_failed():
     said = no_grid_reason([None, None], [0.05, 0.04], [False, False], fits, config)
     assert "across the warps nor across the wefts (periodicity 0.04" in said and "lattice" not in said
     assert "shifts" in no_grid_reason(pitches, strengths, periodic, None, config)
+    # an axis periodic by the spectral lattice alone: the figure quoted is the flat axis's
+    said = no_grid_reason([9.6, None], [0.05, 0.12], [True, False], weak, config)
+    assert "across the wefts (periodicity 0.12" in said

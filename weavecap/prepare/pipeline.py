@@ -392,7 +392,7 @@ def no_grid_reason(pitches: list, strengths: list, periodic: list[bool], lattice
     it has none), its periodicity and whether it counts as periodic."""
     axes = ("across the warps", "across the wefts")
     flat = [a for a, ok in zip(axes, periodic) if not ok]
-    weakest = min(strengths)
+    weakest = min((s for s, ok in zip(strengths, periodic) if not ok), default=min(strengths))
     head = (f"no regular yarn grid: the yarn spacing is not periodic {' nor '.join(flat) or axes[0]} "
             f"(periodicity {weakest:.2f}, at least {config.min_grid_strength} needed)")
     if not any(periodic):
