@@ -384,8 +384,10 @@ def summary(rows: list[dict], split: str | None = None) -> dict:
         "fitted": _share([r["status"] == "ok" for r in fit_target]),
         "rejected": _share([r["status"] == "rejected" and bool(r["reason"]) for r in rs if r["expect"] == "reject"]),
         "family": _share([r["family_right"] for r in rs if r["family_right"] is not None]),
-        **{f"family_{k}": _share([r["family_right"] for r in rs if r["family_right"] is not None
-                                  and r.get("decided") is v]) for k, v in (("decided", True), ("undecided", False))},
+        "family_decided": _share([r["family_right"] for r in rs if r["family_right"] is not None
+                                  and r.get("decided") is True]),
+        "family_undecided": _share([r["family_right"] for r in rs if r["family_right"] is not None
+                                    and r.get("decided") is False]),
         "density": _share([r["density_error"] is not None and abs(r["density_error"]) <= 0.15
                            for r in rs if r["set"] == "fabricnet"]),
         "views": _share(list(agree.values())),
