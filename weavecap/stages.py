@@ -18,6 +18,7 @@ import numpy as np
 
 from .errors import PhotoError
 from .fit.config import PRESETS, FitConfig, FitRequest, cell_px_for
+from .fit.fidelity import LOST_SHARPNESS
 from .params import Fabric
 
 if TYPE_CHECKING:  # types only: the stages import their modules when they run
@@ -193,12 +194,6 @@ def decide(loaded: Loaded, prepared: Prepared, grid: CellGrid, options: CaptureO
     return Decided(again, grid, decision, start=start,
                    known=start if decision is not None and decision.decided and _held(start) else None,
                    repeat_decided=again is not prepared)
-
-
-#: a capture whose render keeps less than this share of its photo's gradient energy is blown
-#: out or black (the bench's back-lit twill 0.85 stop over, its decided twill 2/1 held: 0.0,
-#: every colour at L* 100; the same decision as a start: 1.16)
-LOST_SHARPNESS = 0.5
 
 
 def decision_holds(decided: Decided, kept: Captured) -> str | None:

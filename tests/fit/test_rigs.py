@@ -70,11 +70,30 @@ def test_a_rig_search_keeps_no_sharp_capture_that_explains_the_photo_far_worse()
     assert kept_capture(darker, config)[0] == "auto"
     darker["front"] = weighed(0.0072, 0.9, 3.0)  # a faithful capture within the slack is taken
     assert kept_capture(darker, config) == ("front", "the lowest loss of the faithful captures")
-    w108 = {"auto": weighed(0.01992, 1.019, 10.85, 6.18), "front": weighed(0.006087, 0.42, 1.52),
+    w108 = {"auto": weighed(0.01992, 1.019, 10.85, 6.18), "front": weighed(0.006087, 0.6, 1.52),
             "lamp": weighed(0.02618, 0.867, 0.0, 0.0)}
     assert kept_capture(w108, config)[0] == "auto"  # lamp beyond the slack; auto the one sharp
     w108["auto"] = weighed(0.01992, 0.5, 10.85, 6.18)
-    assert kept_capture(w108, config)[0] == "auto"  # none sharp: the sharpest weighed
+    assert kept_capture(w108, config)[0] == "front"  # none sharp: the sharpest weighed
+
+
+def test_a_flat_capture_sets_no_loss_bar_for_the_rig_search():
+    """A capture rendered flat (under :data:`weavecap.fit.fidelity.LOST_SHARPNESS` of the
+    photo's sharpness) can score the lowest loss against the median repeat registered on it; the
+    slack is measured from the captures that are not: the figures of KTH 44a (scale 2, image 5),
+    where the flat ``front`` capture's loss put the faithful ``lamp`` one beyond the slack and
+    the flat one was kept (0.02 of the photo's sharpness at its own scale; ``lamp``'s: 0.88)."""
+    def weighed(mse, sharpness, warp, weft):
+        return Weighed(rig="?", loss=mse, sharpness=sharpness, delta_e={"warp": warp, "weft": weft})
+
+    config = PRESETS["normal"]
+    kth = {"auto": weighed(0.002045, 0.141, 0.96, 2.4), "both": weighed(0.005415, 0.394, 4.75, 9.28),
+           "lamp": weighed(0.004796, 0.808, 0.59, 0.38)}
+    assert kept_capture(kth, config) == ("lamp", "the lowest loss of the faithful captures")
+    kth["auto"] = weighed(0.002045, 0.5, 0.96, 2.4)  # as sharp as not to be flat: its loss is the bar
+    assert kept_capture(kth, config)[0] == "auto"
+    flat = {light: weighed(w.loss, 0.3, 1.0, 1.0) for light, w in kth.items()}  # all flat: the bar of them all
+    assert kept_capture(flat, config)[0] == "auto"
 
 
 def test_the_runner_prepares_a_photo_once_whatever_the_rig_search(monkeypatch):

@@ -25,7 +25,7 @@ from typing import Callable, Generic, TypeVar
 
 from ..params import Fabric
 from .config import FitConfig, FitRequest
-from .fidelity import faithful_figures
+from .fidelity import LOST_SHARPNESS, faithful_figures
 from .rounds import _registered_target
 
 #: the rigs a rig search (``--light best``, or ``auto``'s retry) captures the photo under
@@ -115,17 +115,24 @@ def search(request: FitRequest, capture: Callable[[str], Capture], weigh: Callab
 def kept_capture(weighed: dict[str, Weighed], config: FitConfig) -> tuple[str, str]:
     """Which of a rig search's captures to keep (``weighed``: ``auto``'s and each other rig's
     figures, by ``--light``), and why. Weighed: ``auto``'s, and those whose loss is within
-    ``config.rig_loss_slack`` of the lowest; of them the lowest loss among the
-    :func:`faithful`, else among those at least ``config.faithful_sharpness`` as sharp as the
-    photo, else the sharpest.
+    ``config.rig_loss_slack`` of the lowest loss of a capture that is not blown out or black
+    (sharpness at least :data:`weavecap.fit.fidelity.LOST_SHARPNESS`; of any capture where none
+    is); of them the lowest loss among the :func:`faithful`, else among those at least
+    ``config.faithful_sharpness`` as sharp as the photo, else the sharpest.
 
     The loss alone rewards a blur (see the module's description); sharpness alone took sharp
     renders that explain the photo far worse: the independent satin 5 a stop darker
     (``--exposure photo``), ``lamp`` at 5.9 times auto's loss, its warp ΔE 21. The captures
-    kept on both photo sets were within 1.35 times the lowest loss (docs/capture.md)."""
+    kept on both photo sets were within 1.35 times the lowest loss (docs/capture.md). A flat
+    render's loss sets no bar: against the median repeat registered on it, a capture that
+    renders the fabric as a blur can score the lowest loss of all: on KTH 44a (scale 2, image 5)
+    auto's ``front`` capture, at 0.14 of the photo's sharpness, scored 0.43 of the loss of the
+    faithful ``lamp`` one (0.81, ΔE under 1), which that put beyond the slack, and the flat one
+    was kept."""
     losses = {light: float(w.loss) for light, w in weighed.items()}
     sharpness = {light: w.sharpness or 0.0 for light, w in weighed.items()}
-    lowest = min(losses.values())
+    seen = [light for light in weighed if sharpness[light] >= LOST_SHARPNESS]  # not blown out or black
+    lowest = min(losses[light] for light in (seen or weighed))
     considered = [light for light in weighed if light == "auto" or losses[light] <= config.rig_loss_slack * lowest]
     faithful_ones = [light for light in considered if faithful(weighed[light], config)]
     if faithful_ones:
