@@ -59,8 +59,9 @@ def test_a_rig_search_keeps_no_sharp_capture_that_explains_the_photo_far_worse()
     """:func:`weavecap.fit.rigs.kept_capture` on the figures of the independent satin 5 a stop
     darker (``--exposure photo``): auto's capture too flat (0.70), ``lamp``'s sharp but at 5.9
     times its loss with the warp 21 ΔE off: auto's is kept. Faithful captures come first, then
-    sharp ones, then the sharpest; ``auto``'s is weighed at any loss (the real satin W108: its
-    one sharp capture is auto's, at 3.3 times the flat front-lit one's loss)."""
+    sharp ones, then the sharpest; ``auto``'s is weighed at any loss (the real satin W108's
+    figures, its front-lit capture made sharper: the one sharp capture is auto's, at 3.3 times
+    front's loss)."""
     def weighed(mse, sharpness, warp, weft=2.0):
         return Weighed(rig="?", loss=mse, sharpness=sharpness, delta_e={"warp": warp, "weft": weft})
 
@@ -70,9 +71,12 @@ def test_a_rig_search_keeps_no_sharp_capture_that_explains_the_photo_far_worse()
     assert kept_capture(darker, config)[0] == "auto"
     darker["front"] = weighed(0.0072, 0.9, 3.0)  # a faithful capture within the slack is taken
     assert kept_capture(darker, config) == ("front", "the lowest loss of the faithful captures")
-    w108 = {"auto": weighed(0.01992, 1.019, 10.85, 6.18), "front": weighed(0.006087, 0.6, 1.52),
+    w108 = {"auto": weighed(0.01992, 1.019, 10.85, 6.18), "front": weighed(0.006087, 0.42, 1.52),
             "lamp": weighed(0.02618, 0.867, 0.0, 0.0)}
-    assert kept_capture(w108, config)[0] == "auto"  # lamp beyond the slack; auto the one sharp
+    # front's render is flat: its loss sets no bar, and lamp, faithful, is within the slack of auto's
+    assert kept_capture(w108, config) == ("lamp", "the lowest loss of the faithful captures")
+    w108["front"] = weighed(0.006087, 0.6, 1.52)  # not flat: its loss the bar, lamp beyond the slack
+    assert kept_capture(w108, config)[0] == "auto"  # auto weighed at any loss, the one sharp
     w108["auto"] = weighed(0.01992, 0.5, 10.85, 6.18)
     assert kept_capture(w108, config)[0] == "front"  # none sharp: the sharpest weighed
 

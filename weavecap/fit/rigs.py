@@ -124,11 +124,11 @@ def kept_capture(weighed: dict[str, Weighed], config: FitConfig) -> tuple[str, s
     renders that explain the photo far worse: the independent satin 5 a stop darker
     (``--exposure photo``), ``lamp`` at 5.9 times auto's loss, its warp ΔE 21. The captures
     kept on both photo sets were within 1.35 times the lowest loss (docs/capture.md). A flat
-    render's loss sets no bar: against the median repeat registered on it, a capture that
-    renders the fabric as a blur can score the lowest loss of all: on KTH 44a (scale 2, image 5)
-    auto's ``front`` capture, at 0.14 of the photo's sharpness, scored 0.43 of the loss of the
-    faithful ``lamp`` one (0.81, ΔE under 1), which that put beyond the slack, and the flat one
-    was kept."""
+    render's loss sets no bar: against the median repeat registered on it, a blurred capture can
+    score the lowest loss of all. On KTH 44a (scale 2, image 5) auto's ``front`` capture, at
+    0.14 of the photo's sharpness, scored 0.43 of the faithful ``lamp`` capture's loss
+    (sharpness 0.81, ΔE under 1), which put ``lamp`` beyond the slack, and the flat one was
+    kept."""
     losses = {light: float(w.loss) for light, w in weighed.items()}
     sharpness = {light: w.sharpness or 0.0 for light, w in weighed.items()}
     seen = [light for light in weighed if sharpness[light] >= LOST_SHARPNESS]  # not blown out or black
