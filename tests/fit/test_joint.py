@@ -249,12 +249,10 @@ def test_colour_solve_raises_a_gain_the_photo_does_not_fix_just_into_range():
     truth = params.load(FIXTURES / "twill_2_1.json").replace({
         **matte, "warp.body_reflection": (0.8, 0.5, 0.2), "warp.body_subsurface": (0.4, 0.3, 0.2),
         "weft.body_reflection": (0.3, 0.6, 0.3), "weft.body_subsurface": (0.2, 0.2, 0.2)})
-    from dataclasses import replace
-
     from weavecap.model.scene import light_rig
 
     c = 16
-    dark_room = replace(light_rig("front"), backdrop=0.0)  # nothing seen through the gaps
+    dark_room = light_rig("front")  # nothing seen through the gaps
     fs = build_scene(truth, View(tiles=(1, 1), size=c * max(truth.shape), spp=8), light=dark_room)
     fs.rig = fs.rig.with_gain(2.5)
     target = render_numpy(fs)
@@ -292,8 +290,8 @@ def test_the_room_seen_through_a_front_lit_fabric_does_not_colour_the_light():
         fs = build_scene(truth, View(tiles=(2, 2), size=2 * c * max(truth.shape), spp=8), light=rig.with_gain(2.0))
         return render_numpy(fs)
 
-    no_room = shot(replace(front, backdrop=0.0))
-    target = no_room + (shot(front) - no_room) * np.array([3.0, 1.0, 0.3])  # the room behind, orange
+    no_room = shot(front)  # the rig's own room: dark
+    target = no_room + (shot(replace(front, backdrop=0.05)) - no_room) * np.array([3.0, 1.0, 0.3])  # lit, orange
     fs = build_scene(truth, View(tiles=(2, 2), size=2 * c * max(truth.shape), spp=8), light=front)
     for k in BODY_COLOUR_KEYS:
         fs.set(k, (0.5, 0.5, 0.5))
@@ -313,8 +311,6 @@ def test_family_colours_raise_the_gain_without_brightening_the_highlights():
     start's, which already matched the photo), the bodies are solved again at the new gain,
     and the render matches the photo (the loss 10⁴ times lower). Left as they were, the
     highlights came out 2.8× too bright, the bodies went black to make up, and the loss rose."""
-    from dataclasses import replace
-
     from weavecap.fit.joint import SPECULAR_COLOUR_KEYS, match_family_colours
     from weavecap.model.render import blurred_mse
     from weavecap.model.scene import light_rig
@@ -326,7 +322,7 @@ def test_family_colours_raise_the_gain_without_brightening_the_highlights():
         "weft.body_reflection": (0.3, 0.6, 0.3), "weft.body_subsurface": (0.3, 0.6, 0.3)})
     photo = fabric.replace({k: tuple(0.5 * v for v in shine) for k in SPECULAR_COLOUR_KEYS})
     c = 16
-    dark_room = replace(light_rig("front"), backdrop=0.0)
+    dark_room = light_rig("front")
     shot = build_scene(photo, View(tiles=(1, 1), size=c * max(photo.shape), spp=8), light=dark_room)
     shot.rig = shot.rig.with_gain(2.0)
     target = render_numpy(shot)

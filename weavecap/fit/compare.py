@@ -119,7 +119,7 @@ def at_photo_scale(image: np.ndarray, fitted, fabric: Fabric, *, c: int, spp: in
     from ..model.render import render_numpy
     from .target import photo_blur
 
-    view = photo_view(image, fitted.cells, fabric, fitted.rig, spp=spp, held=fitted.held)
+    view = photo_view(image, fitted.cells, fitted.drift)
     fabric, threads = capture_threads(view, fabric, fitted.rig, blur_px=fitted.blur_px * view.c / c, spp=spp)
     fs = view_scene(fabric, fitted.rig, view, spp=spp)
     sharp = render_numpy(fs)

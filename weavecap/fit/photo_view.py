@@ -62,24 +62,24 @@ def view_cell_px(cells: CellGrid) -> tuple[int, float]:
     return int(np.clip(round(pitch), MIN_CELL_PX, MAX_CELL_PX)), pitch
 
 
-def photo_view(image: np.ndarray, cells: CellGrid, fabric: Fabric, rig, *, spp: int, held: bool = False,
-               max_px: int = MAX_VIEW_PX) -> PhotoView:
+def photo_view(image: np.ndarray, cells: CellGrid, drift=None, *, max_px: int = MAX_VIEW_PX) -> PhotoView:
     """The photo ``image`` (rectified, (H, W, 3) linear) over the whole cells of the lattice
-    of ``cells`` (the fitted repeat in its pixels), read along the lattice's drift measured
-    against a render of ``fabric`` under ``rig`` (:func:`weavecap.fit.target.cells_canvas`,
-    ``held`` as the fit's target was read), the middle cells kept within ``max_px`` a side."""
-    from ..estimate.forward import BLUR_CELLS
-    from ..model.render import as_photographed, render_numpy, white_level
-    from ..model.scene import View, build_scene
+    of ``cells`` (the fitted repeat in its pixels), read along ``drift`` — the
+    :class:`weavecap.fit.target.Drift` the fit's median repeat was read along, so that every
+    cell shows what the fit matched there (:func:`weavecap.fit.target.cells_canvas`) — the
+    middle cells kept within ``max_px`` a side.
+
+    Measured again against a render of the fitted fabric instead, the drift could lock half a
+    cell away from the fit's: the independent plain weave with dark gaps (its fit's drift half a
+    cell off the lattice, the view's own drift rejected as a mismatch) showed its capture half
+    a cell off at the photo's scale, structure −0.85 where the median repeat's was 0.92."""
+    from ..model.render import white_level
     from .target import cells_canvas
 
     c, pitch = view_cell_px(cells)
-    n_e, n_a = fabric.shape
+    n_e, n_a = cells.shape
     white = white_level(image)
-    single = fabric.with_threads(None)
-    model = as_photographed(render_numpy(build_scene(single, View(tiles=(1, 1), size=c * max(n_e, n_a), spp=spp),
-                                                     light=rig)), BLUR_CELLS * c, white)
-    canvas, first, _ = cells_canvas(image, cells, c, model, hold_phase=held)
+    canvas, first, _ = cells_canvas(image, cells, c, drift)
     rows, cols = canvas.shape[0] // c, canvas.shape[1] // c
     keep = [max(1, min(k, max_px // c, MAX_VIEW_REPEATS * n)) for k, n in ((rows, n_e), (cols, n_a))]
     y0, x0 = (rows - keep[0]) // 2, (cols - keep[1]) // 2

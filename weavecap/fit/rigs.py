@@ -170,7 +170,7 @@ def choose_rig(prepared, cells, fabric: Fabric, *, c: int, spp: int,
         rig = light_rig(name)
         model = RepeatRenderer(fabric, cell_px=c, light=rig, blur_cells=BLUR_CELLS,
                                white=white_level(prepared.rectification.image)).render()
-        _, _, target = _registered_target(prepared, cells, model, c)
+        target = _registered_target(prepared, cells, model, c)[2]
         fs = build_scene(fabric, View(tiles=(1, 1), size=max(target.shape[:2]), spp=spp), light=rig)
 
         def measure() -> float:

@@ -22,7 +22,7 @@ import numpy as np
 from .. import params as wparams
 from ..model.scene import GEOMETRY_KEYS, LightRig
 from .config import FitConfig, FitRequest
-from .target import dual, mean_repeat, photo_blur, register_cells, shifted
+from .target import dual, photo_blur, read_repeat, register_cells, shifted
 
 #: registration rounds the pattern decoded from the photo's edges is fitted in (:func:`edge_check`):
 #: started from a fit of another pattern, one round left the independent twill 1/3 S's render
@@ -44,6 +44,8 @@ class RegisteredFit:
     notes : what the report records (cell shifts per round, the dual choice)
     held : whether the target's drift was held to the cells' own phase
         (:func:`weavecap.fit.target.mean_repeat`'s ``hold_phase``)
+    drift : the :class:`weavecap.fit.target.Drift` the target was read along on ``cells``
+        (None: the regular lattice), for reading the photo again as the fit saw it
     """
 
     result: object
@@ -52,6 +54,7 @@ class RegisteredFit:
     blur_px: float
     notes: dict = field(default_factory=dict)
     held: bool = False
+    drift: object = None
 
     def agreement(self) -> float:
         """How well the fitted pattern agrees with the model-free votes of this round's own
@@ -71,12 +74,13 @@ class RegisteredFit:
 def _registered_target(prepared, cells, model: np.ndarray, c: int, *, held: bool = False, whole_cells: bool = True):
     """The cells registered on ``model`` (a render of one repeat as photographed, ``c`` px per
     cell) and the photo's median repeat there (its drift ``held`` to the cells' phase or not,
-    :func:`weavecap.fit.target.mean_repeat`): (cells in the regularized box's pixels, shift in
-    cells, target (n_e*c, n_a*c, 3)); ``whole_cells`` False holds the pattern's phase on the photo."""
+    :func:`weavecap.fit.target.read_repeat`): (cells in the regularized box's pixels, shift in
+    cells, target (n_e*c, n_a*c, 3), the drift it was read along); ``whole_cells`` False holds
+    the pattern's phase on the photo."""
     cells, shift = register_cells(prepared.regularized.image, cells, model, c, whole_cells=whole_cells)
-    target = mean_repeat(prepared.rectification.image, shifted(cells, prepared.regularized.box), c, model=model,
-                         hold_phase=held)
-    return cells, shift, target
+    target, drift = read_repeat(prepared.rectification.image, shifted(cells, prepared.regularized.box), c,
+                                model=model, hold_phase=held)
+    return cells, shift, target, drift
 
 
 def _fit_round(prepared, cells, fabric: wparams.Fabric, rig: LightRig, config: FitConfig, *, c: int,
@@ -95,12 +99,12 @@ def _fit_round(prepared, cells, fabric: wparams.Fabric, rig: LightRig, config: F
     model = as_photographed(image, BLUR_CELLS * c, white_level(prepared.rectification.image))
     from ..estimate.orientation import cell_votes
 
-    cells, shift, target = _registered_target(prepared, cells, model, c, held=held, whole_cells=whole_cells)
+    cells, shift, target, drift = _registered_target(prepared, cells, model, c, held=held, whole_cells=whole_cells)
     blur_px, _ = photo_blur(image, target, c)
     result = fit(target, fabric, config=config, light=rig, seed=seed, budget_s=budget_s, fixed=fixed,
                  blur_px=blur_px, votes=cell_votes(target, fabric.shape), by_look=False)
     return RegisteredFit(result=result, target=target, cells=cells, blur_px=blur_px,
-                         notes={"cell_shift": [round(v, 3) for v in shift]}, held=held)
+                         notes={"cell_shift": [round(v, 3) for v in shift]}, held=held, drift=drift)
 
 
 def is_named_weave(pattern: np.ndarray) -> bool:
@@ -149,7 +153,7 @@ def pattern_scores(prepared, cells, start: wparams.Fabric, rig: LightRig, patter
     for pattern in patterns:
         rr.set_pattern(pattern)
         model = rr.render()
-        _, _, target = _registered_target(prepared, cells, model, c)
+        target = _registered_target(prepared, cells, model, c)[2]
         scores.append(float(np.mean(np.square(model - target))))
     return scores
 
@@ -164,7 +168,7 @@ def photo_votes(prepared, cells, fabric: wparams.Fabric, rig: LightRig, *, c: in
 
     model = RepeatRenderer(fabric, cell_px=c, light=rig, blur_cells=BLUR_CELLS,
                            white=white_level(prepared.rectification.image)).render()
-    _, _, target = _registered_target(prepared, cells, model, c)
+    target = _registered_target(prepared, cells, model, c)[2]
     return cell_votes(target, fabric.shape)
 
 
@@ -475,8 +479,8 @@ def fit_registered(prepared, cells, start: wparams.Fabric, request: FitRequest, 
     ``config.start_tie_tolerance`` of the lowest, or within ``config.start_tie_band``) are
     settled by the model-free votes when they back one by more than ``config.vote_margin``.
     After the first round the rounds run twice, on targets whose lattice drift is followed from
-    the model and on targets held to the cells' phase (:func:`mean_repeat`'s ``hold_phase``),
-    and the lower loss goes on — unless the two end on different patterns the photo cannot tell
+    the model and on targets held to the cells' phase
+    (:func:`weavecap.fit.target.mean_repeat`'s ``hold_phase``), and the lower loss goes on — unless the two end on different patterns the photo cannot tell
     apart, which the votes settle as they do the starts (:func:`settle_by_votes`). At the end, a
     fitted pattern that is no named weave is tried against the best named weave of its shape and
     against the chosen start's pattern when that was a named weave, each fitted with its pattern
@@ -646,4 +650,4 @@ def fit_registered(prepared, cells, start: wparams.Fabric, request: FitRequest, 
     result = dataclasses.replace(best.result, history=history, iterations=len(history),
                                  seconds=time.perf_counter() - t0)
     return RegisteredFit(result=result, target=best.target, cells=shifted(best.cells, prepared.regularized.box),
-                         blur_px=best.blur_px, notes=notes, held=best.held)
+                         blur_px=best.blur_px, notes=notes, held=best.held, drift=best.drift)

@@ -14,6 +14,9 @@ Shapes: images are (H, W, 3) linear RGB; a canvas of one repeat of an (n_e, n_a)
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import Callable
+
 import numpy as np
 
 from ..estimate.cells import CellGrid, cell_canvas, gap_phase, mirror_phase
@@ -136,6 +139,21 @@ def register_cells(image: np.ndarray, cells: CellGrid, model: np.ndarray, c: int
     return CellGrid(rows=rows, cols=cols), (float(dy), float(dx))
 
 
+@dataclass(frozen=True)
+class Drift:
+    """The drift a median repeat was read along (:func:`read_repeat`): ``field(y, x)`` the
+    displacement (dy, dx) in canvas px at ``c`` px a cell, (..., 2), with y and x (broadcasting)
+    in repeats from the origin of the lattice of every whole repeat (:func:`_whole_repeats`)."""
+
+    field: Callable
+    c: int
+
+    def at(self, c: int) -> Callable:
+        """The same displacement in canvas px at ``c`` px a cell."""
+        scale = c / self.c
+        return lambda y, x: self.field(y, x) * scale
+
+
 def _whole_repeats(shape: tuple[int, int], cells: CellGrid) -> tuple[CellGrid, int, int]:
     """The lattice of ``cells`` extended over every whole repeat of an image of ``shape``
     (H, W), one pitch clear of the border: (cells of all of them, repeats down, across). A
@@ -235,7 +253,15 @@ def mean_repeat(image: np.ndarray, cells: CellGrid, c: int, model: np.ndarray | 
     :func:`weavecap.fit.rounds.fit_registered` tries both and keeps the lower loss.
     Returns (n_e*c, n_a*c, 3) float32.
     """
-    return repeats_canvas(image, cells, c, model, hold_phase=hold_phase)[1]
+    return read_repeat(image, cells, c, model, hold_phase=hold_phase)[0]
+
+
+def read_repeat(image: np.ndarray, cells: CellGrid, c: int, model: np.ndarray | None = None, *,
+                hold_phase: bool = False) -> tuple[np.ndarray, Drift | None]:
+    """:func:`mean_repeat`, and the drift it was read along (None: the regular lattice), so
+    that the photo can be read again as the fit saw it (:func:`cells_canvas`)."""
+    _, median, _, drift = _followed(image, cells, c, model, hold_phase)
+    return median, drift
 
 
 def repeats_canvas(image: np.ndarray, cells: CellGrid, c: int, model: np.ndarray | None = None, *,
@@ -256,9 +282,8 @@ def repeats_canvas(image: np.ndarray, cells: CellGrid, c: int, model: np.ndarray
 
 
 def _followed(image: np.ndarray, cells: CellGrid, c: int, model: np.ndarray | None, hold_phase: bool):
-    """:func:`repeats_canvas`'s canvas, median and lattice, and the drift it followed: a
-    function of (y, x) in repeats from the lattice's origin giving (dy, dx) in canvas px, or
-    None."""
+    """:func:`repeats_canvas`'s canvas, median and lattice, and the :class:`Drift` it followed,
+    or None."""
     n_e, n_a = cells.shape
     lattice, ky, kx = _whole_repeats(image.shape[:2], cells)
     canvas = cell_canvas(image, lattice, c)
@@ -283,14 +308,15 @@ def _followed(image: np.ndarray, cells: CellGrid, c: int, model: np.ndarray | No
     followed_canvas = _drifted_canvas(image, lattice, c, drift, (0, 0), (n_e, n_a))
     followed, followed_spread = median_and_spread(followed_canvas)
     if followed_spread <= MISMATCH_SPREAD * spread:
-        return followed_canvas, followed, lattice, drift
+        return followed_canvas, followed, lattice, Drift(drift, c)
     return canvas, median, lattice, None
 
 
 def _drifted_canvas(image: np.ndarray, lattice: CellGrid, c: int, drift, first: tuple[int, int],
                     shape: tuple[int, int]) -> np.ndarray:
-    """The cell canvas of ``lattice`` read along ``drift`` (of :func:`_followed`), whose first
-    cell is cell ``first`` (v, u) from the drift's origin, for a repeat of ``shape``."""
+    """The cell canvas of ``lattice`` read along ``drift`` (a :attr:`Drift.field`, canvas px at
+    ``c``), whose first cell is cell ``first`` (v, u) from the drift's origin, for a repeat of
+    ``shape``."""
     h, w = shape[0] * c, shape[1] * c
     rows, cols = lattice.shape
     field = drift(((np.arange(rows * c) + 0.5 + first[0] * c) / h)[:, None],
@@ -299,11 +325,14 @@ def _drifted_canvas(image: np.ndarray, lattice: CellGrid, c: int, drift, first: 
     return cell_canvas(image, lattice, c, offset=np.moveaxis(field * scale, 2, 0))
 
 
-def cells_canvas(image: np.ndarray, cells: CellGrid, c: int, model: np.ndarray | None = None, *,
-                 hold_phase: bool = False) -> tuple[np.ndarray, tuple[int, int], CellGrid]:
+def cells_canvas(image: np.ndarray, cells: CellGrid, c: int, drift: Drift | None = None
+                 ) -> tuple[np.ndarray, tuple[int, int], CellGrid]:
     """Every whole cell of ``image`` (half a pitch clear of its border) on the lattice of
-    ``cells``, read along the drift :func:`repeats_canvas` follows: more threads than whole
-    repeats hold, for what is read per thread (:mod:`weavecap.estimate.thread_colours`).
+    ``cells``, read along ``drift`` — the one the fit's median repeat was read along on the same
+    ``cells`` (:func:`read_repeat`), so that each cell shows what the fit saw there — or on the
+    regular lattice: more threads than whole repeats hold, for what is read per thread
+    (:mod:`weavecap.estimate.thread_colours`) and the capture at the photo's scale
+    (:mod:`weavecap.fit.photo_view`).
 
     Returns
     -------
@@ -313,7 +342,7 @@ def cells_canvas(image: np.ndarray, cells: CellGrid, c: int, model: np.ndarray |
     lattice : the canvas's cells in ``image`` pixels
     """
     n_e, n_a = cells.shape
-    _, _, repeats, drift = _followed(image, cells, c, model, hold_phase)
+    repeats = _whole_repeats(image.shape[:2], cells)[0]
     axes, first = [], []
     for bounds, n, size in ((repeats.rows, n_e, image.shape[0]), (repeats.cols, n_a, image.shape[1])):
         pitch = float(np.diff(bounds).mean())
@@ -326,7 +355,7 @@ def cells_canvas(image: np.ndarray, cells: CellGrid, c: int, model: np.ndarray |
     if drift is None:
         canvas = cell_canvas(image, lattice, c)
     else:
-        canvas = _drifted_canvas(image, lattice, c, drift, (first[0], first[1]), (n_e, n_a))
+        canvas = _drifted_canvas(image, lattice, c, drift.at(c), (first[0], first[1]), (n_e, n_a))
     return canvas, (first[0] % n_e, first[1] % n_a), lattice
 
 
