@@ -264,11 +264,10 @@ def read_repeat(image: np.ndarray, cells: CellGrid, c: int, model: np.ndarray | 
     return median, drift
 
 
-def repeats_canvas(image: np.ndarray, cells: CellGrid, c: int, model: np.ndarray | None = None, *,
-                   hold_phase: bool = False) -> tuple[np.ndarray, np.ndarray, CellGrid]:
-    """Every whole repeat of ``image`` on the lattice of ``cells`` as one cell canvas, read
-    along the lattice's drift where ``model`` is given and the drift is no mismatch (as
-    :func:`mean_repeat` describes, which is this canvas's median over the repeats).
+def _followed(image: np.ndarray, cells: CellGrid, c: int, model: np.ndarray | None, hold_phase: bool):
+    """Every whole repeat of ``image`` on the lattice of ``cells`` as one cell canvas, read along
+    the lattice's drift where ``model`` is given and the drift is no mismatch (as
+    :func:`mean_repeat` describes).
 
     Returns
     -------
@@ -276,14 +275,8 @@ def repeats_canvas(image: np.ndarray, cells: CellGrid, c: int, model: np.ndarray
         canvas being cell (v mod n_e, u mod n_a) of the pattern
     median : (n_e*c, n_a*c, 3) float32, the median repeat
     lattice : the canvas's cells in ``image`` pixels (a regular lattice; the drift not included)
+    drift : the :class:`Drift` followed, or None
     """
-    canvas, median, lattice, _ = _followed(image, cells, c, model, hold_phase)
-    return canvas, median, lattice
-
-
-def _followed(image: np.ndarray, cells: CellGrid, c: int, model: np.ndarray | None, hold_phase: bool):
-    """:func:`repeats_canvas`'s canvas, median and lattice, and the :class:`Drift` it followed,
-    or None."""
     n_e, n_a = cells.shape
     lattice, ky, kx = _whole_repeats(image.shape[:2], cells)
     canvas = cell_canvas(image, lattice, c)
