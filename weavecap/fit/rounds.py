@@ -480,8 +480,9 @@ def fit_registered(prepared, cells, start: wparams.Fabric, request: FitRequest, 
     settled by the model-free votes when they back one by more than ``config.vote_margin``.
     After the first round the rounds run twice, on targets whose lattice drift is followed from
     the model and on targets held to the cells' phase
-    (:func:`weavecap.fit.target.mean_repeat`'s ``hold_phase``), and the lower loss goes on — unless the two end on different patterns the photo cannot tell
-    apart, which the votes settle as they do the starts (:func:`settle_by_votes`). At the end, a
+    (:func:`weavecap.fit.target.mean_repeat`'s ``hold_phase``), and the lower loss goes on —
+    unless the two end on different patterns the photo cannot tell apart, which the votes
+    settle as they do the starts (:func:`settle_by_votes`). At the end, a
     fitted pattern that is no named weave is tried against the best named weave of its shape and
     against the chosen start's pattern when that was a named weave, each fitted with its pattern
     fixed; one clearly lower (by more than ``config.named_weave_tolerance``) is taken, else, of

@@ -258,24 +258,12 @@ def mean_repeat(image: np.ndarray, cells: CellGrid, c: int, model: np.ndarray | 
 
 def read_repeat(image: np.ndarray, cells: CellGrid, c: int, model: np.ndarray | None = None, *,
                 hold_phase: bool = False) -> tuple[np.ndarray, Drift | None]:
-    """:func:`mean_repeat`, and the drift it was read along (None: the regular lattice), so
-    that the photo can be read again as the fit saw it (:func:`cells_canvas`)."""
-    _, median, _, drift = _followed(image, cells, c, model, hold_phase)
-    return median, drift
+    """:func:`mean_repeat` — the median over every whole repeat of ``image`` on the lattice of
+    ``cells``, read along the lattice's drift where ``model`` is given and the drift is no
+    mismatch — and the :class:`Drift` it was read along (None: the regular lattice), so that
+    the photo can be read again as the fit saw it (:func:`cells_canvas`).
 
-
-def _followed(image: np.ndarray, cells: CellGrid, c: int, model: np.ndarray | None, hold_phase: bool):
-    """Every whole repeat of ``image`` on the lattice of ``cells`` as one cell canvas, read along
-    the lattice's drift where ``model`` is given and the drift is no mismatch (as
-    :func:`mean_repeat` describes).
-
-    Returns
-    -------
-    canvas : (ky*n_e*c, kx*n_a*c, 3) float32, the ky × kx repeats, cell (v, u) of the
-        canvas being cell (v mod n_e, u mod n_a) of the pattern
-    median : (n_e*c, n_a*c, 3) float32, the median repeat
-    lattice : the canvas's cells in ``image`` pixels (a regular lattice; the drift not included)
-    drift : the :class:`Drift` followed, or None
+    Returns (n_e*c, n_a*c, 3) float32 and the drift.
     """
     n_e, n_a = cells.shape
     lattice, ky, kx = _whole_repeats(image.shape[:2], cells)
@@ -289,7 +277,7 @@ def _followed(image: np.ndarray, cells: CellGrid, c: int, model: np.ndarray | No
 
     median, spread = median_and_spread(canvas)
     if model is None or ky * kx < 3:
-        return canvas, median, lattice, None
+        return median, None
     blocks = canvas.mean(axis=2).reshape(ky, h, kx, w).transpose(0, 2, 1, 3)
     measured = lattice_drift(blocks, np.asarray(model).mean(axis=2), c)
     held = correlation_shift(cell_canvas(image, cells, c).mean(axis=2), np.asarray(model).mean(axis=2)) \
@@ -298,11 +286,10 @@ def _followed(image: np.ndarray, cells: CellGrid, c: int, model: np.ndarray | No
     def drift(y, x) -> np.ndarray:
         return measured(y, x) - held
 
-    followed_canvas = _drifted_canvas(image, lattice, c, drift, (0, 0), (n_e, n_a))
-    followed, followed_spread = median_and_spread(followed_canvas)
+    followed, followed_spread = median_and_spread(_drifted_canvas(image, lattice, c, drift, (0, 0), (n_e, n_a)))
     if followed_spread <= MISMATCH_SPREAD * spread:
-        return followed_canvas, followed, lattice, Drift(drift, c)
-    return canvas, median, lattice, None
+        return followed, Drift(drift, c)
+    return median, None
 
 
 def _drifted_canvas(image: np.ndarray, lattice: CellGrid, c: int, drift, first: tuple[int, int],
