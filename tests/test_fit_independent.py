@@ -94,7 +94,7 @@ def test_a_photo_brighter_than_the_rig_is_not_blown_out(tmp_path):
     lower loss unless the votes clearly back another, sharpness 0.26, ΔE 1.1 and 3.5, L* 84
     and 83 where the photo has 83 and 80 (the colours right, the yarn edges soft). Since the
     median repeat no longer follows a mismatched model's drift (a sharper target on every
-    start, :func:`weavecap.fit.target.mean_repeat`): sharpness 2.0, ΔE 5.1 and 4.7, L* 81 and
+    start, :func:`weavecap.fit.target.read_repeat`): sharpness 2.0, ΔE 5.1 and 4.7, L* 81 and
     80 where the photo has 80 and 77 — on a wrong pattern. Since the photo's edges have the
     last word (:func:`weavecap.fit.rounds.edge_check`) the pattern is the true twill 2/1 S,
     sharpness 0.87, ΔE 11.9 and 1.9 (the warp rendered at L* 80 where the photo has 90; fitted

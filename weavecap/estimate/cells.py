@@ -67,7 +67,7 @@ def cell_canvas(image: np.ndarray, grid: CellGrid, cell_px: int, offset: np.ndar
     cell_px : side of a cell on the canvas, pixels.
     offset : optional (2, n_e * cell_px, n_a * cell_px) displacement (dy, dx) in ``image``
         pixels added to where each canvas pixel is read (a lattice that is not quite regular:
-        :func:`weavecap.fit.target.mean_repeat`).
+        :func:`weavecap.fit.target.read_repeat`).
 
     Returns
     -------

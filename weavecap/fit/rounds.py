@@ -43,7 +43,7 @@ class RegisteredFit:
     blur_px : the blur the renders were compared with
     notes : what the report records (cell shifts per round, the dual choice)
     held : whether the target's drift was held to the cells' own phase
-        (:func:`weavecap.fit.target.mean_repeat`'s ``hold_phase``)
+        (:func:`weavecap.fit.target.read_repeat`'s ``hold_phase``)
     drift : the :class:`weavecap.fit.target.Drift` the target was read along on ``cells``
         (None: the regular lattice), for reading the photo again as the fit saw it
     """
@@ -480,7 +480,7 @@ def fit_registered(prepared, cells, start: wparams.Fabric, request: FitRequest, 
     settled by the model-free votes when they back one by more than ``config.vote_margin``.
     After the first round the rounds run twice, on targets whose lattice drift is followed from
     the model and on targets held to the cells' phase
-    (:func:`weavecap.fit.target.mean_repeat`'s ``hold_phase``), and the lower loss goes on —
+    (:func:`weavecap.fit.target.read_repeat`'s ``hold_phase``), and the lower loss goes on —
     unless the two end on different patterns the photo cannot tell apart, which the votes
     settle as they do the starts (:func:`settle_by_votes`). At the end, a
     fitted pattern that is no named weave is tried against the best named weave of its shape and
@@ -573,7 +573,7 @@ def fit_registered(prepared, cells, start: wparams.Fabric, request: FitRequest, 
             k += 1
         return best, steps, shifts, k
 
-    # both ways of reading the drift (:func:`weavecap.fit.target.mean_repeat`'s hold_phase),
+    # both ways of reading the drift (:func:`weavecap.fit.target.read_repeat`'s hold_phase),
     # each through all the rounds: a fit registered half a cell off settles there, its family
     # colours averaged, and one round on the held phase from it does not climb out (the
     # independent twill 2/1 S: 0.0475 against 0.0428)

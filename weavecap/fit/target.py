@@ -5,7 +5,7 @@ compares a render of one repeat with the photo's *median repeat* on that lattice
 that works rests on the lattice: a fifth of a cell off, or a drift of a pixel across the
 photo, and even the true parameters score poorly. So the cells are registered on a render of
 the fabric (:func:`register_cells`, one FFT), and the median repeat follows any residual drift
-of the lattice across the photo (:func:`mean_repeat` with a ``model``). The capture repeats
+of the lattice across the photo (:func:`read_repeat` with a ``model``). The capture repeats
 both between rounds of the fit (:func:`weavecap.fit.rounds.fit_registered`).
 
 Shapes: images are (H, W, 3) linear RGB; a canvas of one repeat of an (n_e, n_a) pattern at
@@ -217,8 +217,8 @@ def lattice_drift(blocks: np.ndarray, model: np.ndarray, c: int):
     return field
 
 
-def mean_repeat(image: np.ndarray, cells: CellGrid, c: int, model: np.ndarray | None = None, *,
-                hold_phase: bool = False) -> np.ndarray:
+def read_repeat(image: np.ndarray, cells: CellGrid, c: int, model: np.ndarray | None = None, *,
+                hold_phase: bool = False) -> tuple[np.ndarray, Drift | None]:
     """The photo's average repeat as a cell canvas: the median over every whole repeat of
     ``image`` (H, W, 3) on the lattice of ``cells`` (a CellGrid in its pixels), one pitch clear
     of the border. Irregularities average out (§4.2's aim) without kernel PCA's variable
@@ -251,19 +251,10 @@ def mean_repeat(image: np.ndarray, cells: CellGrid, c: int, model: np.ndarray | 
     against 13.0 / 7.1), while a render close to the photo correlates more exactly than
     the gaps are found (the own-render twill 2/1, held in every round: 12.6 dB against 35.0).
     :func:`weavecap.fit.rounds.fit_registered` tries both and keeps the lower loss.
-    Returns (n_e*c, n_a*c, 3) float32.
-    """
-    return read_repeat(image, cells, c, model, hold_phase=hold_phase)[0]
 
-
-def read_repeat(image: np.ndarray, cells: CellGrid, c: int, model: np.ndarray | None = None, *,
-                hold_phase: bool = False) -> tuple[np.ndarray, Drift | None]:
-    """:func:`mean_repeat` — the median over every whole repeat of ``image`` on the lattice of
-    ``cells``, read along the lattice's drift where ``model`` is given and the drift is no
-    mismatch — and the :class:`Drift` it was read along (None: the regular lattice), so that
-    the photo can be read again as the fit saw it (:func:`cells_canvas`).
-
-    Returns (n_e*c, n_a*c, 3) float32 and the drift.
+    Returns the median repeat, (n_e*c, n_a*c, 3) float32, and the :class:`Drift` it was read
+    along (None: the regular lattice), so that the photo can be read again as the fit saw it
+    (:func:`cells_canvas`).
     """
     n_e, n_a = cells.shape
     lattice, ky, kx = _whole_repeats(image.shape[:2], cells)
